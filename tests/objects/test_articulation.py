@@ -1,0 +1,82 @@
+import numpy as np
+import pytest
+
+from ucope.errors import InputError
+from ucope.geometry.transforms import apply_transform, axis_angle_transform
+from ucope.objects.articulation import ArticulatedObject, Joint, Part, build_object, make_part
+from ucope.objects.shapes import box
+from tests_support import make_toy_object  # noqa: E402
+
+
+def test_make_part_centres_the_box():
+    part, T = make_part("p", box([0.2, 0.4, 0.6], [1.0, 2.0, 3.0]))
+    np.testing.assert_allclose(part.size_m, [0.2, 0.4, 0.6])
+    np.testing.assert_allclose(T[:3, 3], [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(part.mesh.bounds.sum(0), 0.0, atol=1e-12)
+
+
+def test_rest_and_fk_of_a_revolute_joint():
+    obj = make_toy_object()
+    assert obj.num_parts == 2 and obj.joint_types == ("revolute",)
+    poses0 = obj.object_from_part([0.0])
+    np.testing.assert_allclose(poses0[0], np.eye(4), atol=1e-12)
+    # at 90 degrees the lid stands up behind the hinge
+    poses = obj.object_from_part([np.pi / 2])
+    piv, ax = obj.joints_in_object([np.pi / 2])
+    np.testing.assert_allclose(ax[0], [-1.0, 0.0, 0.0], atol=1e-12)
+    lid_centre = poses[1, :3, 3]
+    assert lid_centre[1] > poses0[1, 1, 3] + 0.1  # moved up
+    # the child's motion is exactly a rotation about the joint axis through the pivot
+    M = axis_angle_transform(ax[0], piv[0], np.pi / 2)
+    np.testing.assert_allclose(poses[1], M @ poses0[1], atol=1e-12)
+
+
+def test_prismatic_moves_along_axis():
+    obj = make_toy_object("prismatic")
+    p0, p1 = obj.object_from_part([0.0]), obj.object_from_part([0.2])
+    np.testing.assert_allclose(p1[1, :3, 3] - p0[1, :3, 3], [0.0, 0.0, 0.2], atol=1e-12)
+
+
+def test_state_validation():
+    obj = make_toy_object()
+    with pytest.raises(InputError, match="outside its limits"):
+        obj.object_from_part([3.0])
+    with pytest.raises(InputError, match="1 values"):
+        obj.object_from_part([0.1, 0.2])
+    with pytest.raises(InputError, match="NaN"):
+        obj.object_from_part([np.nan])
+
+
+def test_tree_validation():
+    part, _ = make_part("a", box([0.1, 0.1, 0.1]))
+    part2, _ = make_part("b", box([0.1, 0.1, 0.1]))
+    with pytest.raises(InputError, match="needs 1 joints"):
+        ArticulatedObject("c", "i", (part, part2), ())
+    j = Joint("revolute", 1, 1, [0, 0, 0], [0, 1, 0], (0, 1), 0)
+    with pytest.raises(InputError):
+        ArticulatedObject("c", "i", (part, part2), (j,))
+    with pytest.raises(InputError, match="unique"):
+        ArticulatedObject("c", "i", (part, part), (Joint("revolute", 0, 1, [0, 0, 0], [0, 1, 0], (0, 1), 0),))
+    with pytest.raises(InputError, match="type"):
+        Joint("ball", 0, 1, [0, 0, 0], [0, 1, 0], (0, 1), 0)
+    with pytest.raises(InputError, match="axis"):
+        Joint("revolute", 0, 1, [0, 0, 0], [0, 0, 0], (0, 1), 0)
+    with pytest.raises(InputError, match="centred"):
+        Part("x", box([0.1, 0.1, 0.1], [1.0, 0.0, 0.0]))
+
+
+def test_chain_of_three_parts():
+    # a URDF-like chain: root -> 1 (revolute about y) -> 2 (prismatic along x of part 1)
+    parts = [make_part(n, box([0.1, 0.1, 0.1], c)) for n, c in (("a", [0, 0, 0]), ("b", [0.2, 0, 0]), ("c", [0.4, 0, 0]))]
+    joints = [
+        dict(type="revolute", parent=0, child=1, pivot=[0.1, 0, 0], axis=[0, 1, 0], limits=(-3, 3)),
+        dict(type="prismatic", parent=1, child=2, pivot=[0.3, 0, 0], axis=[1, 0, 0], limits=(0, 0.5)),
+    ]
+    obj = build_object("chain", "c/0", parts, joints)
+    P = obj.object_from_part([np.pi / 2, 0.1])
+    # part 1 rotated by 90 degrees about y through (0.1, 0, 0): centre (0.2,0,0) -> (0.1, 0, -0.1)
+    np.testing.assert_allclose(P[1, :3, 3], [0.1, 0.0, -0.1], atol=1e-12)
+    # part 2 at (0.4 + 0.1) along the rotated x axis -> (0.1, 0, -0.4)
+    np.testing.assert_allclose(P[2, :3, 3], [0.1, 0.0, -0.4], atol=1e-12)
+    v, f, lab = obj.posed_geometry([np.pi / 2, 0.1])
+    assert set(lab.tolist()) == {0, 1, 2} and len(f) == 36
