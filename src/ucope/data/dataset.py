@@ -1,0 +1,85 @@
+"""Reading generated data sets: an indexable sequence of samples, and a torch ``Dataset``."""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError
+from ..render.camera import PinholeCamera
+from .shards import read_json, read_shard, shard_name
+
+__all__ = ["SyntheticDataset", "load_dataset"]
+
+
+class SyntheticDataset(Sequence):
+    """A generated data set on disk, as a read-only sequence of sample dicts (see
+    :mod:`ucope.data.sample`). Shards are read lazily; the last few are kept in memory."""
+
+    def __init__(self, root: str | Path, cache_shards: int = 4):
+        self.root = Path(root)
+        if not self.root.is_dir():
+            raise DataError(f"data set folder {self.root} does not exist")
+        self.meta = read_json(self.root / "meta.json")
+        try:
+            self._num = int(self.meta["num"])
+            self._shard_size = int(self.meta["shard_size"])
+            self.category = str(self.meta["category"])
+        except (KeyError, ValueError, TypeError) as e:
+            raise DataError(f"{self.root / 'meta.json'} is not a ucope data set description ({e})") from None
+        n_shards = -(-self._num // self._shard_size)
+        missing = [s for s in range(n_shards) if not (self.root / shard_name(s)).exists()]
+        if missing:
+            raise DataError(
+                f"data set {self.root} is incomplete: {len(missing)} of {n_shards} shards missing "
+                f"(first: {shard_name(missing[0])}); re-run the same `ucope generate` command to finish it"
+            )
+        self._cache: OrderedDict[int, list[dict]] = OrderedDict()
+        self._cache_size = max(1, cache_shards)
+
+    @property
+    def camera(self) -> PinholeCamera:
+        return PinholeCamera.from_dict(self.meta["view"]["camera"])
+
+    @property
+    def num_parts(self) -> int:
+        return int(self.meta["num_parts"])
+
+    def __len__(self) -> int:
+        return self._num
+
+    def _shard(self, s: int) -> list[dict]:
+        if s in self._cache:
+            self._cache.move_to_end(s)
+            return self._cache[s]
+        path = self.root / shard_name(s)
+        samples = read_shard(path)
+        expect = min(self._num, (s + 1) * self._shard_size) - s * self._shard_size
+        if len(samples) != expect:
+            raise DataError(f"shard {path} holds {len(samples)} samples, meta.json says {expect}")
+        self._cache[s] = samples
+        while len(self._cache) > self._cache_size:
+            self._cache.popitem(last=False)
+        return samples
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        i = int(i)
+        if i < 0:
+            i += self._num
+        if not 0 <= i < self._num:
+            raise IndexError(f"sample index {i} out of range for a data set of {self._num}")
+        s = i // self._shard_size
+        return dict(self._shard(s)[i - s * self._shard_size])
+
+    def __repr__(self) -> str:
+        return f"SyntheticDataset({str(self.root)!r}, category={self.category!r}, split={self.meta.get('split')!r}, num={self._num})"
+
+
+def load_dataset(root: str | Path) -> SyntheticDataset:
+    """Open a data set made by ``ucope generate`` (folder with ``meta.json`` and shards)."""
+    return SyntheticDataset(root)

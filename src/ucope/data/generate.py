@@ -1,0 +1,230 @@
+"""Synthetic data-set generation: sharded, atomic, resumable and deterministic.
+
+Sample ``i`` of a data set depends only on ``(category, split, seed, i)`` and the settings in
+``meta.json``: instance ``i // views_per_instance`` of the split, and a view drawn from a random stream
+of its own. So any number of workers, or of machines each generating a range of shards, writes the
+same files.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
+from ..errors import DataError, InputError
+from ..objects.articulation import JOINT_TYPES
+from ..objects.categories import SPLITS, get_category, make_instance
+from ..render.views import ViewConfig, render_view
+from .images import bop_entries, merge_bop_parts, write_png
+from .sample import sample_from_view
+from .shards import FORMAT_VERSION, atomic_write_json, read_json, shard_name, write_shard
+
+__all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng"]
+
+MIN_OBJECT_PIXELS = 64
+"""A view must show at least this many object pixels; otherwise another view is drawn."""
+
+
+@dataclass(frozen=True)
+class GenerateConfig:
+    """Everything that defines a data set's content (recorded in ``meta.json``)."""
+
+    category: str
+    split: str = "train"
+    num: int = 1000
+    seed: int = 0
+    shard_size: int = 100
+    views_per_instance: int = 8
+    max_points: int = 4096
+    normal_k: int = 16
+    images: bool = False
+    view: ViewConfig = field(default_factory=ViewConfig)
+
+    def validate(self) -> None:
+        get_category(self.category)  # UnknownCategoryError lists the valid names
+        if self.split not in SPLITS:
+            raise InputError(f"unknown split {self.split!r}; valid splits: {', '.join(SPLITS)}")
+        for name in ("num", "shard_size", "views_per_instance", "max_points"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or v <= 0:
+                raise InputError(f"{name} must be a positive integer, got {v!r}")
+        if self.max_points < 16:
+            raise InputError(f"max_points must be at least 16, got {self.max_points}")
+
+    @property
+    def num_shards(self) -> int:
+        return -(-self.num // self.shard_size)
+
+    def settings(self) -> dict:
+        """The content-defining settings, as stored in and compared against ``meta.json``."""
+        return {
+            "category": self.category, "split": self.split, "num": int(self.num), "seed": int(self.seed),
+            "shard_size": int(self.shard_size), "views_per_instance": int(self.views_per_instance),
+            "max_points": int(self.max_points), "normal_k": int(self.normal_k), "images": bool(self.images),
+            "view": self.view.to_dict(), "generator_version": GENERATOR_VERSION,
+            "conventions_version": CONVENTIONS_VERSION, "format_version": FORMAT_VERSION,
+        }
+
+    def meta(self) -> dict:
+        spec = get_category(self.category)
+        return {
+            **self.settings(),
+            "family": spec.family, "num_parts": spec.num_parts, "part_names": list(spec.part_names),
+            "joint_types": list(spec.joint_types), "joint_type_codes": list(JOINT_TYPES),
+            "symmetry": list(spec.symmetry), "num_shards": self.num_shards, "ucope_version": __version__,
+        }
+
+    @classmethod
+    def from_meta(cls, meta: dict) -> "GenerateConfig":
+        keys = ("category", "split", "num", "seed", "shard_size", "views_per_instance", "max_points", "normal_k", "images")
+        try:
+            return cls(**{k: meta[k] for k in keys}, view=ViewConfig.from_dict(meta["view"]))
+        except (KeyError, TypeError) as e:
+            raise DataError(f"meta.json lacks or has a bad setting: {e}") from None
+
+
+def sample_rng(category: str, split: str, seed: int, index: int) -> np.random.Generator:
+    """The random stream of view ``index`` (independent of the instance streams)."""
+    keys = [zlib.crc32(s.encode()) for s in (category, "view", split)]
+    return np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=(*keys, int(index))))
+
+
+_INSTANCE_CACHE: dict = {}
+
+
+def _instance(cfg: GenerateConfig, inst: int):
+    key = (cfg.category, cfg.split, cfg.seed, inst)
+    obj = _INSTANCE_CACHE.get(key)
+    if obj is None:
+        _INSTANCE_CACHE.clear()  # views of one instance are consecutive: keep only the latest
+        obj = _INSTANCE_CACHE[key] = make_instance(cfg.category, cfg.split, inst, cfg.seed)
+    return obj
+
+
+def make_sample(cfg: GenerateConfig, index: int, return_view: bool = False):
+    """Build sample ``index`` of the data set described by ``cfg`` (deterministic)."""
+    spec = get_category(cfg.category)
+    obj = _instance(cfg, index // cfg.views_per_instance)
+    rng = sample_rng(cfg.category, cfg.split, cfg.seed, index)
+    for _ in range(50):
+        view = render_view(obj, cfg.view, rng, spec)
+        if int((view.mask < obj.num_parts).sum()) >= MIN_OBJECT_PIXELS:
+            break
+    else:  # pragma: no cover - would need a degenerate camera configuration
+        raise InputError(f"could not find a view of {obj.instance_id} with {MIN_OBJECT_PIXELS} object pixels; check the camera settings")
+    sample = sample_from_view(obj, view, cfg.view.camera, rng, index, cfg.max_points, cfg.normal_k)
+    return (sample, view) if return_view else sample
+
+
+def _generate_shard(cfg: GenerateConfig, out: Path, shard: int) -> int:
+    lo, hi = shard * cfg.shard_size, min(cfg.num, (shard + 1) * cfg.shard_size)
+    samples, cams, gts = [], {}, {}
+    for i in range(lo, hi):
+        sample, view = make_sample(cfg, i, return_view=True)
+        samples.append(sample)
+        if cfg.images:
+            write_png(out / "images" / "depth" / f"{i:06d}.png", view.depth_mm)
+            write_png(out / "images" / "mask" / f"{i:06d}.png", view.mask)
+            cams[str(i)], gts[str(i)] = bop_entries(sample)
+    if cfg.images:
+        atomic_write_json(out / "images" / ".bop_parts" / f"shard_{shard:05d}.json", {"scene_camera": cams, "scene_gt": gts})
+    write_shard(out / shard_name(shard), samples)  # written last: its presence marks the shard done
+    return hi - lo
+
+
+def _worker(args) -> int:
+    cfg, out, shard = args
+    return _generate_shard(cfg, out, shard)
+
+
+def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if cfg.images:
+            for sub in ("depth", "mask", ".bop_parts"):
+                (out / "images" / sub).mkdir(parents=True, exist_ok=True)
+        probe = out / f".write_test_{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as e:
+        raise DataError(f"cannot write to output folder {out}: {e.strerror or e}") from None
+    meta_path = out / "meta.json"
+    if meta_path.exists():
+        old = read_json(meta_path)
+        new = cfg.settings()
+        diff = sorted(k for k in new if old.get(k) != new[k])
+        if diff:
+            raise DataError(
+                f"{out} already holds a data set made with other settings ({', '.join(diff)} differ); "
+                "use another --out folder, or the same settings to resume"
+            )
+    else:
+        atomic_write_json(meta_path, cfg.meta())
+
+
+def _progress(total: int, desc: str, enabled: bool):
+    if not enabled:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # tqdm is an optional extra
+        return None
+    return tqdm(total=total, desc=desc, unit="view", file=sys.stderr, dynamic_ncols=True)
+
+
+def generate_dataset(
+    out: str | os.PathLike,
+    cfg: GenerateConfig,
+    workers: int = 1,
+    shards: range | None = None,
+    progress: bool = True,
+) -> Path:
+    """Generate (or resume) a data set in folder ``out``.
+
+    Args:
+        cfg: what to generate.
+        workers: processes; the files do not depend on it.
+        shards: the shard indices to make on this machine (default: all). Shards already on disk are
+            skipped, so an interrupted run resumes where it stopped.
+
+    Returns:
+        The output folder.
+    """
+    cfg.validate()
+    if not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise InputError(f"workers must be a positive integer, got {workers!r}")
+    out = Path(out)
+    all_shards = range(cfg.num_shards)
+    shards = all_shards if shards is None else shards
+    if len(shards) and (shards.start < 0 or shards.stop > cfg.num_shards):
+        raise InputError(f"shard range {shards.start}:{shards.stop} is outside 0:{cfg.num_shards}")
+    _prepare_out(out, cfg)
+    todo = [s for s in shards if not (out / shard_name(s)).exists()]
+    n_todo = sum(min(cfg.num, (s + 1) * cfg.shard_size) - s * cfg.shard_size for s in todo)
+    bar = _progress(n_todo, f"{cfg.category}/{cfg.split}", progress)
+    try:
+        if workers == 1 or len(todo) <= 1:
+            for s in todo:
+                n = _generate_shard(cfg, out, s)
+                if bar is not None:
+                    bar.update(n)
+        else:
+            import multiprocessing as mp
+
+            # spawn: workers never inherit a parent's ray-tracing thread pools
+            with mp.get_context("spawn").Pool(min(workers, len(todo))) as pool:
+                for n in pool.imap_unordered(_worker, [(cfg, out, s) for s in todo]):
+                    if bar is not None:
+                        bar.update(n)
+    finally:
+        if bar is not None:
+            bar.close()
+    if cfg.images and all((out / shard_name(s)).exists() for s in all_shards):
+        merge_bop_parts(out / "images", [out / "images" / ".bop_parts" / f"shard_{s:05d}.json" for s in all_shards])
+    return out

@@ -1,0 +1,100 @@
+"""One training / test sample: a partial point cloud of an object with its ground truth.
+
+A sample is a plain ``dict``; the fields and their meaning:
+
+=================  ==============  =============================================================
+name               shape / type    meaning
+=================  ==============  =============================================================
+``points``         (P, 3) float32  partial point cloud, camera frame (OpenCV axes), metres
+``normals``        (P, 3) float32  unit normals (kNN PCA), oriented towards the camera
+``part_labels``    (P,) int64      part index of each point, in ``[0, K)``
+``cam_from_part``  (K, 4, 4) f64   every part's pose: part canonical frame -> camera frame
+``size_m``         (K, 3) f64      amodal box extents of every part (in its own frame), metres
+``joint_type``     (K-1,) int64    index into ``ucope.objects.articulation.JOINT_TYPES``
+``joint_pivot``    (K-1, 3) f64    a point on each joint axis, camera frame, metres
+``joint_axis``     (K-1, 3) f64    unit joint axis, camera frame
+``joint_state``    (K-1,) f64      radians (revolute) or metres (prismatic)
+``cam_from_object`` (4, 4) f64     the object (root part) frame -> camera frame
+``intrinsics``     (4,) f64        fx, fy, cx, cy of the camera (pixels)
+``category``       str             category name
+``instance_id``    str             ``category/split/seed/index`` of the object instance
+``index``          int             sample index in its data set
+=================  ==============  =============================================================
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..geometry.normals import estimate_normals
+from ..geometry.sampling import random_subset
+from ..objects.articulation import ArticulatedObject
+from ..render.camera import PinholeCamera
+from ..render.views import RenderedView
+
+__all__ = ["SAMPLE_ARRAY_FIELDS", "sample_from_view", "check_sample"]
+
+SAMPLE_ARRAY_FIELDS = (
+    "points", "normals", "part_labels", "cam_from_part", "size_m", "joint_type",
+    "joint_pivot", "joint_axis", "joint_state", "cam_from_object", "intrinsics",
+)
+
+
+def sample_from_view(
+    obj: ArticulatedObject,
+    view: RenderedView,
+    camera: PinholeCamera,
+    rng: np.random.Generator,
+    index: int,
+    max_points: int = 4096,
+    normal_k: int = 16,
+) -> dict:
+    """Back-project the object pixels of a view into a sample (see the module table).
+
+    The cloud is subsampled (uniformly, from ``rng``) to at most ``max_points`` before the normals are
+    estimated. Raises :class:`InputError` if the view holds fewer than 3 object points.
+    """
+    K = obj.num_parts
+    on_object = view.mask < K
+    pts, pix = camera.backproject(view.depth_mm.astype(np.float64) / 1000.0, on_object)
+    if len(pts) < 3:
+        raise InputError(f"view {index} of {obj.instance_id} shows only {len(pts)} object points")
+    labels = view.mask[pix[:, 0], pix[:, 1]].astype(np.int64)
+    if len(pts) > max_points:
+        keep = random_subset(len(pts), max_points, rng)
+        pts, labels = pts[keep], labels[keep]
+    normals = estimate_normals(pts, k=normal_k)
+    return {
+        "points": pts.astype(np.float32),
+        "normals": normals,
+        "part_labels": labels,
+        "cam_from_part": view.cam_from_part,
+        "size_m": obj.size_m,
+        "joint_type": np.array([j.type_code for j in obj.joints], dtype=np.int64),
+        "joint_pivot": view.joint_pivot.reshape(-1, 3),
+        "joint_axis": view.joint_axis.reshape(-1, 3),
+        "joint_state": view.joint_state.reshape(-1),
+        "cam_from_object": view.cam_from_object,
+        "intrinsics": np.array([camera.fx, camera.fy, camera.cx, camera.cy]),
+        "category": obj.category,
+        "instance_id": obj.instance_id,
+        "index": int(index),
+    }
+
+
+def check_sample(sample: dict) -> None:
+    """Raise :class:`InputError` naming the first field of ``sample`` with a wrong shape."""
+    for k in SAMPLE_ARRAY_FIELDS + ("category", "instance_id"):
+        if k not in sample:
+            raise InputError(f"sample lacks field {k!r}")
+    P = len(sample["points"])
+    K = len(sample["size_m"])
+    want = {
+        "points": (P, 3), "normals": (P, 3), "part_labels": (P,), "cam_from_part": (K, 4, 4), "size_m": (K, 3),
+        "joint_type": (K - 1,), "joint_pivot": (K - 1, 3), "joint_axis": (K - 1, 3), "joint_state": (K - 1,),
+        "cam_from_object": (4, 4), "intrinsics": (4,),
+    }
+    for k, shape in want.items():
+        if np.shape(sample[k]) != shape:
+            raise InputError(f"sample field {k!r} has shape {np.shape(sample[k])}, expected {shape}")

@@ -1,0 +1,101 @@
+"""Pictures of samples: points coloured by part, amodal boxes and joint axes (matplotlib, optional).
+
+Plots are drawn in the camera frame seen roughly from the camera: x right, y down (flipped so the
+picture is upright), z away from the viewer.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..geometry.boxes import BOX_EDGES, box_corners
+
+__all__ = ["PART_COLOURS", "plot_samples", "matplotlib_pyplot"]
+
+PART_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
+
+
+def matplotlib_pyplot():
+    """``matplotlib.pyplot`` with the non-interactive Agg backend, or a clear error if it is missing."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise InputError('pictures need matplotlib: pip install "ucope[viz]"') from None
+    return plt
+
+
+def _to_plot(p: np.ndarray) -> np.ndarray:
+    """Camera frame (x right, y down, z forward) -> plot axes (x right, z forward as depth, y up)."""
+    p = np.asarray(p, dtype=np.float64)
+    return np.stack([p[..., 0], p[..., 2], -p[..., 1]], axis=-1)
+
+
+def draw_sample(ax, sample: dict, title: str | None = None, max_points: int = 3000, box_style: str = "-") -> None:
+    """Draw one sample on a matplotlib 3D axis."""
+    pts = np.asarray(sample["points"])
+    labels = np.asarray(sample["part_labels"])
+    if len(pts) > max_points:
+        sel = np.linspace(0, len(pts) - 1, max_points).astype(int)
+        pts, labels = pts[sel], labels[sel]
+    P = _to_plot(pts)
+    cols = np.array(PART_COLOURS)[labels % len(PART_COLOURS)]
+    ax.scatter(P[:, 0], P[:, 1], P[:, 2], c=cols, s=1.5, depthshade=False)
+    corners = _to_plot(box_corners(np.asarray(sample["cam_from_part"]), np.asarray(sample["size_m"])))
+    for k, c in enumerate(corners):
+        for a, b in BOX_EDGES:
+            ax.plot(*zip(c[a], c[b]), box_style, color=PART_COLOURS[k % len(PART_COLOURS)], lw=1.0)
+        # part frame axes: x red, y green, z blue, a quarter of the box
+        T = np.asarray(sample["cam_from_part"])[k]
+        L = 0.25 * float(np.min(np.asarray(sample["size_m"])[k])) + 1e-3
+        o = T[:3, 3]
+        for d, colour in zip(T[:3, :3].T, ("r", "g", "b")):
+            seg = _to_plot(np.stack([o, o + L * d]))
+            ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color=colour, lw=1.5)
+    diag = float(np.linalg.norm(np.ptp(pts, axis=0))) if len(pts) else 0.1
+    for piv, axis in zip(np.asarray(sample["joint_pivot"]).reshape(-1, 3), np.asarray(sample["joint_axis"]).reshape(-1, 3)):
+        seg = _to_plot(np.stack([piv - 0.35 * diag * axis, piv + 0.35 * diag * axis]))
+        ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color="k", lw=2.0)
+        ax.scatter(*_to_plot(piv), color="k", s=12)
+    allp = np.concatenate([P, corners.reshape(-1, 3)])
+    centre = 0.5 * (allp.min(0) + allp.max(0))
+    r = 0.5 * float(np.max(np.ptp(allp, axis=0)))
+    ax.set_xlim(centre[0] - r, centre[0] + r)
+    ax.set_ylim(centre[1] - r, centre[1] + r)
+    ax.set_zlim(centre[2] - r, centre[2] + r)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=20, azim=-75)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+    ax.set_zlabel("-y (m)")
+    ax.tick_params(labelsize=6)
+    if title:
+        ax.set_title(title, fontsize=8)
+
+
+def plot_samples(samples: list[dict], out: str | Path, titles: list[str] | None = None, cols: int = 3) -> Path:
+    """Draw samples side by side into a PNG at ``out``; returns the path."""
+    if not samples:
+        raise InputError("nothing to plot: no samples given")
+    plt = matplotlib_pyplot()
+    n = len(samples)
+    cols = min(cols, n)
+    rows = -(-n // cols)
+    fig = plt.figure(figsize=(4.2 * cols, 4.0 * rows), dpi=110)
+    for i, s in enumerate(samples):
+        ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
+        title = titles[i] if titles else f"{s['category']} #{s['index']} ({s['instance_id']})"
+        draw_sample(ax, s, title)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.stem}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(out)
+    return out
