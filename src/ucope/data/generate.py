@@ -8,6 +8,7 @@ same files.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import zlib
@@ -157,7 +158,7 @@ def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
     meta_path = out / "meta.json"
     if meta_path.exists():
         old = read_json(meta_path)
-        new = cfg.settings()
+        new = json.loads(json.dumps(cfg.settings()))  # tuples -> lists, as stored
         diff = sorted(k for k in new if old.get(k) != new[k])
         if diff:
             raise DataError(

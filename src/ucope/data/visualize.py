@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
 
-__all__ = ["PART_COLOURS", "plot_samples", "matplotlib_pyplot"]
+__all__ = ["PART_COLOURS", "plot_samples", "plot_object", "matplotlib_pyplot"]
 
 PART_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
 
@@ -91,6 +91,67 @@ def plot_samples(samples: list[dict], out: str | Path, titles: list[str] | None 
         ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
         title = titles[i] if titles else f"{s['category']} #{s['index']} ({s['instance_id']})"
         draw_sample(ax, s, title)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.stem}.tmp.png")
+    fig.savefig(tmp)
+    plt.close(fig)
+    tmp.replace(out)
+    return out
+
+
+def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_deg: float = 35.0, elevation_deg: float = 25.0) -> Path:
+    """Draw an :class:`~ucope.objects.articulation.ArticulatedObject` at ``state`` (default: rest).
+
+    The object is ray cast from an oblique camera (so occlusion is exact) and shaded by part, with the
+    amodal boxes, the part frames (x red, y green, z blue) and the joint axes (black, arrow head on the
+    positive side) drawn over it. Used for the pictures in docs/conventions.md.
+    """
+    from ..geometry.transforms import apply_transform, invert_transform, look_at_rotation, make_transform
+    from ..render.camera import PinholeCamera
+    from ..render.raycast import raycast_depth
+
+    plt = matplotlib_pyplot()
+    import matplotlib.colors as mcolors
+
+    poses = obj.object_from_part(state)
+    v, f, lab = obj.posed_geometry(state)
+    lo, hi = v.min(0), v.max(0)
+    centre, diag = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
+    cam = PinholeCamera(fx=520.0, fy=520.0, cx=239.5, cy=199.5, width=480, height=400)
+    yaw, elev = np.radians(yaw_deg), np.radians(elevation_deg)
+    eye = centre + 1.6 * diag * np.array([np.cos(elev) * np.sin(yaw), np.sin(elev), np.cos(elev) * np.cos(yaw)])
+    cam_from_obj = invert_transform(make_transform(look_at_rotation(eye, centre), eye))
+    depth, labels = raycast_depth(apply_transform(cam_from_obj, v), f, lab, cam)
+    pts = cam.pixel_rays(*np.mgrid[0 : cam.height, 0 : cam.width].reshape(2, -1)).reshape(cam.height, cam.width, 3) * depth[..., None]
+    n = np.cross(np.gradient(pts, axis=1), np.gradient(pts, axis=0))
+    n /= np.linalg.norm(n, axis=-1, keepdims=True) + 1e-12
+    shade = 0.35 + 0.65 * np.abs(n[..., 2])
+    img = np.ones((cam.height, cam.width, 3))
+    for k in range(obj.num_parts):
+        m = labels == k
+        img[m] = np.clip(np.array(mcolors.to_rgb(PART_COLOURS[k % len(PART_COLOURS)])) * 0.5 + 0.5, 0, 1) * shade[m, None]
+
+    fig, ax = plt.subplots(figsize=(4.8, 4.0), dpi=110)
+    ax.imshow(img)
+    uv = lambda p: cam.project(apply_transform(cam_from_obj, np.atleast_2d(p)))  # noqa: E731
+    for k, (part, T) in enumerate(zip(obj.parts, poses)):
+        c = uv(box_corners(T, part.size_m))
+        for a, b in BOX_EDGES:
+            ax.plot(c[[a, b], 0], c[[a, b], 1], color=PART_COLOURS[k % len(PART_COLOURS)], lw=0.9)
+        L = 0.3 * float(np.max(part.size_m))
+        for d, colour in zip(T[:3, :3].T, ("r", "g", "b")):
+            seg = uv(np.stack([T[:3, 3], T[:3, 3] + L * d]))
+            ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=2.0)
+    piv, axes = obj.joints_in_object(state)
+    for p, a in zip(piv, axes):
+        seg = uv(np.stack([p - 0.25 * diag * a, p + 0.25 * diag * a]))
+        ax.annotate("", xy=seg[1], xytext=seg[0], arrowprops=dict(arrowstyle="-|>", color="k", lw=1.8))
+    ax.set_xlim(0, cam.width)
+    ax.set_ylim(cam.height, 0)
+    ax.axis("off")
+    ax.set_title(title or obj.instance_id, fontsize=9)
     fig.tight_layout()
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
