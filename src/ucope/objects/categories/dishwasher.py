@@ -1,0 +1,181 @@
+"""Dishwasher (ArtImage-like, articulated): parts ``("body", "door")``, one revolute joint.
+
+Object frame (y up, x right, z towards the viewer / the front of the machine; metres; origin at the
+body's amodal box centre):
+
+* ``body``: the cabinet and tub, an open box (open at the front, +z) with side, top, back walls, a tub
+  floor above the kick zone, a recessed kick plate, two wire racks (rim loops, bottom grid, posts,
+  plate tines on the lower rack) on side rails, and spray arms. Width 0.45-0.62 m, height 0.80-0.88 m,
+  depth (door included) 0.55-0.65 m.
+* ``door``: the front slab (thickness 0.04-0.07 m) above the kick plate, with a control panel strip
+  (buttons, display) and a handle (a bar on stand-offs, or a pull lip under the panel) on its front, an
+  inner liner and a detergent dispenser on its back.
+* Joint ``body -> door`` (revolute): hinge line along x at the bottom front edge of the door (``y`` =
+  top of the kick zone, ``z`` = front face of the door). State 0 is CLOSED. Axis ``(+1, 0, 0)``, so a
+  positive angle opens the door downwards / forwards (its top edge moves to +z); at ``pi/2`` it lies
+  horizontal in front of the tub. Limits ``(0, 1.57)`` rad, rest 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..articulation import ArticulatedObject, build_object, make_part
+from ..shapes import combine, open_box
+from . import CategorySpec
+from ._articulated_common import boxes, disc, extrude, rounded_rect, sweep_planar
+
+__all__ = ["SPEC", "build"]
+
+LIMITS = (0.0, 1.57)
+REST = 0.0
+
+
+def _rack(rng: np.random.Generator, w: float, d: float, h: float, y0: float, zc: float, tines: bool, rod: float):
+    """A wire rack (bottom loop, top loop, posts, bottom grid, optional plate tines) centred at (0, y0, zc)."""
+    parts = []
+    loop = rounded_rect(w, d, 0.02, 4)
+    for y in (y0, y0 + h):
+        path = np.stack([loop[:, 0], np.full(len(loop), y), loop[:, 1] + zc], -1)
+        parts.append(sweep_planar(path, (0, 1, 0), rod, rod, sections=6, closed=True))
+    n_z = int(rng.integers(9, 15))  # grid wires running front-back
+    xs = np.linspace(-w / 2, w / 2, n_z + 2)[1:-1]
+    n_x = int(rng.integers(3, 6))
+    zs = np.linspace(zc - d / 2, zc + d / 2, n_x + 2)[1:-1]
+    c = [np.c_[xs, np.full(n_z, y0), np.full(n_z, zc)], np.c_[np.zeros(n_x), np.full(n_x, y0), zs]]
+    e = [np.tile([2 * rod, 2 * rod, d], (n_z, 1)), np.tile([w, 2 * rod, 2 * rod], (n_x, 1))]
+    # posts: corners and side midpoints
+    px = np.array([-1, 1, -1, 1, -1, 1]) * (w / 2 - 0.01)
+    pz = zc + np.array([-1, -1, 1, 1, 0, 0]) * (d / 2 - 0.01)
+    c.append(np.c_[px, np.full(6, y0 + h / 2), pz])
+    e.append(np.tile([2 * rod, h, 2 * rod], (6, 1)))
+    if tines:
+        n_t = int(rng.integers(8, 14))
+        tx = np.linspace(-w / 2 + 0.04, w / 2 - 0.04, n_t)
+        th = h * rng.uniform(1.2, 1.8)
+        for zt in (zc - d / 6, zc + d / 6):
+            c.append(np.c_[tx, np.full(n_t, y0 + th / 2), np.full(n_t, zt)])
+            e.append(np.tile([1.6 * rod, th, 1.6 * rod], (n_t, 1)))
+    parts.append(boxes(np.concatenate(c), np.concatenate(e)))
+    return parts
+
+
+def _spray_arm(length: float, width: float, y: float, zc: float, angle: float):
+    """A flat spray arm (rotated bar) with a hub."""
+    rect = np.array([[-length / 2, -width / 2], [length / 2, -width / 2], [length / 2, width / 2], [-length / 2, width / 2]])
+    c, s = np.cos(angle), np.sin(angle)
+    rect = rect @ np.array([[c, s], [-s, c]]) + np.array([0.0, zc])
+    return [extrude(rect, 0.012, plane="xz", offset=y), disc(0.02, 0.03, (0.0, y - 0.015, zc), "y", 14)]
+
+
+def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
+    """A random dishwasher; see the module docstring for the frame and joint conventions."""
+    W = rng.uniform(0.45, 0.62)
+    H = rng.uniform(0.80, 0.88)
+    D = rng.uniform(0.55, 0.65)  # door included
+    Td = rng.uniform(0.04, 0.07)
+    wt = rng.uniform(0.012, 0.022)  # wall thickness
+    kick_h = rng.uniform(0.08, 0.12)
+    kick_recess = rng.uniform(0.01, 0.05)
+    panel_h = rng.uniform(0.06, 0.10)
+    panel_proud = rng.uniform(0.002, 0.006)
+    handle_type = int(rng.integers(0, 2))  # 0: bar on stand-offs, 1: pull lip under the control panel
+    handle_len = W * rng.uniform(0.45, 0.85)
+    handle_r = rng.uniform(0.008, 0.013)
+    handle_off = rng.uniform(0.03, 0.05)  # bar distance from the door
+    n_buttons = int(rng.integers(3, 8))
+    rack_rod = rng.uniform(0.0018, 0.0028)
+    lower_rack_h = rng.uniform(0.09, 0.14)
+    upper_rack_h = rng.uniform(0.07, 0.11)
+    upper_frac = rng.uniform(0.50, 0.60)
+    arm_angles = rng.uniform(0.0, np.pi, 2)
+
+    Db = D - Td - 0.0015  # body depth (the door and its 1.5 mm gap make up the rest)
+    zb, zf = -D / 2, -D / 2 + Db  # body back and front planes
+    body = []
+    body.append(open_box((W, H, Db), wt, center=(0.0, H / 2, zb + Db / 2), open_side="+z", shelves_y=(kick_h - wt / 2 - H / 2,)))
+    body.append(boxes([[0.0, kick_h / 2, zf + Td - kick_recess - 0.005]], [[W - 0.004, kick_h - 0.004, 0.01]]))  # kick plate
+    # tub inner extents
+    wi = W - 2 * wt
+    y_floor = kick_h
+    y_ceil = H - wt
+    rack_w = wi - 0.03
+    rack_d = Db - wt - 0.06
+    rack_zc = zb + wt + 0.01 + rack_d / 2
+    y_low = y_floor + rng.uniform(0.05, 0.08)
+    y_up = y_floor + upper_frac * (y_ceil - y_floor)
+    body += _rack(rng, rack_w, rack_d, lower_rack_h, y_low, rack_zc, True, rack_rod)
+    body += _rack(rng, rack_w, rack_d, upper_rack_h, y_up, rack_zc, False, rack_rod)
+    # side rails carrying the racks
+    rails_c, rails_e = [], []
+    for y in (y_low, y_up):
+        for sx in (-1, 1):
+            rails_c.append([sx * (wi / 2 - 0.0075), y, rack_zc])
+            rails_e.append([0.015, 0.012, rack_d + 0.02])
+    body.append(boxes(np.array(rails_c), np.array(rails_e)))
+    body += _spray_arm(rack_w * 0.8, 0.035, y_floor + 0.03, rack_zc, arm_angles[0])
+    body += _spray_arm(rack_w * 0.7, 0.03, y_up - 0.03, rack_zc, arm_angles[1])
+    body.append(disc(0.05, 0.01, (0.0, y_floor + 0.005, rack_zc + rack_d * 0.25), "y", 18))  # filter
+    body_mesh = combine(body)
+
+    # door at state 0: y in [kick_h, H], z in [zf + gap, zf + gap + Td] (a 1.5 mm gap to the body)
+    Hd = H - kick_h
+    gap = 0.0015
+    door = [extrude(rounded_rect(W - 0.002, Hd - 0.002, 0.008, 3, center=(0.0, kick_h + Hd / 2)), Td, plane="xy", offset=zf + gap + Td / 2)]
+    zfront = zf + gap + Td
+    y_panel = H - 0.001 - panel_h / 2
+    door.append(boxes([[0.0, y_panel, zfront + panel_proud / 2]], [[W - 0.01, panel_h - 0.004, panel_proud]]))
+    bx = np.linspace(-0.35 * W, 0.10 * W, n_buttons)
+    door.append(boxes(np.c_[bx, np.full(n_buttons, y_panel), np.full(n_buttons, zfront + panel_proud + 0.0015)],
+                      np.tile([0.016, 0.012, 0.003], (n_buttons, 1))))
+    door.append(boxes([[0.25 * W, y_panel, zfront + panel_proud + 0.001]], [[0.09, 0.03, 0.002]]))  # display
+    if handle_type == 0:
+        yh = H - panel_h - rng.uniform(0.03, 0.06)
+        r_c = min(0.5 * handle_off, 0.02)
+        ang = np.linspace(0.0, 0.5 * np.pi, 6)
+        x_arc = handle_len / 2 - r_c + r_c * np.sin(ang)
+        z_arc = zfront + handle_off - r_c + r_c * np.cos(ang)
+        xs = np.concatenate([[-handle_len / 2], -x_arc[::-1][:-1], np.linspace(-x_arc[0], x_arc[0], 5), x_arc[1:], [handle_len / 2]])
+        zs = np.concatenate([[zfront - 0.002], z_arc[::-1][:-1], np.full(5, zfront + handle_off), z_arc[1:], [zfront - 0.002]])
+        path = np.stack([xs, np.full(len(xs), yh), zs], -1)
+        door.append(sweep_planar(path, (0, 1, 0), handle_r, handle_r, sections=10))
+    else:
+        yh = H - panel_h - 0.006
+        door.append(boxes([[0.0, yh, zfront + 0.012]], [[handle_len, 0.012, 0.024]]))
+        door.append(boxes([[0.0, yh - 0.012, zfront + 0.022]], [[handle_len, 0.02, 0.006]]))
+    # inner liner and dispenser on the back of the door (they enter the tub opening when closed)
+    liner_w = wi - 0.02
+    liner_h = (y_ceil - y_floor) - 0.03
+    door.append(boxes([[0.0, y_floor + 0.015 + liner_h / 2, zf + 0.5 * gap - 0.004]], [[liner_w, liner_h, 0.008 + gap]]))
+    door.append(boxes([[0.1 * W, y_floor + 0.55 * liner_h, zf - 0.013]], [[0.14, 0.08, 0.012]]))
+    door_mesh = combine(door)
+
+    body_part, T_body = make_part("body", body_mesh)
+    door_part, T_door = make_part("door", door_mesh)
+    params = dict(
+        width=W, height=H, depth=D, door_thickness=Td, wall_thickness=wt, kick_height=kick_h,
+        kick_recess=kick_recess, panel_height=panel_h, panel_proud=panel_proud, handle_type=handle_type,
+        handle_length=handle_len, handle_radius=handle_r, handle_offset=handle_off, n_buttons=n_buttons,
+        rack_rod_radius=rack_rod, lower_rack_height=lower_rack_h, upper_rack_height=upper_rack_h,
+        upper_rack_frac=upper_frac, spray_arm_angle_lower=float(arm_angles[0]),
+        spray_arm_angle_upper=float(arm_angles[1]),
+    )
+    return build_object(
+        "dishwasher", instance_id, [(body_part, T_body), (door_part, T_door)],
+        joints=[dict(type="revolute", parent=0, child=1, pivot=(0.0, kick_h, zfront), axis=(1.0, 0.0, 0.0),
+                     limits=LIMITS, rest=REST)],
+        params=params,
+    )
+
+
+SPEC = CategorySpec(
+    name="dishwasher",
+    family="artimage",
+    part_names=("body", "door"),
+    joint_types=("revolute",),
+    symmetry=("none", "none"),
+    distance_range_m=(1.5, 2.6),
+    elevation_range_deg=(10.0, 55.0),
+    build=build,
+    description="dishwasher: cabinet with racks + front door on a bottom revolute hinge (opens down to 90 degrees)",
+)
