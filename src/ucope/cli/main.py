@@ -81,7 +81,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     samples = []
     for cat in args.categories:
-        cfg = GenerateConfig(category=cat, split="test", num=args.num, seed=args.seed, shard_size=args.num)
+        cfg = GenerateConfig(category=cat, split="test", num=args.num, seed=args.seed, shard_size=args.num,
+                             views_per_instance=1)
         ds = load_dataset(generate_dataset(out / cat, cfg, progress=False))
         for s in ds:
             samples.append(s)
