@@ -86,3 +86,22 @@ def test_ppf_values_and_sign_invariance():
     f2 = point_pair_features(a, na, b, -nb)
     np.testing.assert_allclose(f1, f2, atol=1e-12)
     assert f1[1] == pytest.approx(0.0)
+
+def test_smallest_eigenvectors_sym3_matches_eigh(rng):
+    from ucope.geometry.normals import smallest_eigenvectors_sym3
+
+    x = rng.normal(size=(3000, 16, 3)) * rng.uniform(1e-3, 1.0, size=(3000, 1, 3))
+    x = x @ np.linalg.qr(rng.normal(size=(3000, 3, 3)))[0]
+    cov = x.transpose(0, 2, 1) @ x
+    # Degenerate batches: collinear points (two zero eigenvalues), isotropic, all-zero.
+    line = np.outer(np.linspace(-1, 1, 16), [0.3, -0.5, 0.8])
+    cov = np.concatenate([cov, (line.T @ line)[None], np.eye(3)[None], np.zeros((1, 3, 3))])
+    vec = smallest_eigenvectors_sym3(cov)
+    np.testing.assert_allclose(np.linalg.norm(vec, axis=1), 1.0, atol=1e-9)
+    # Each result is an eigenvector of the smallest eigenvalue (the residual measures that even where
+    # the eigenvector is not unique).
+    lam = np.linalg.eigvalsh(cov)[:, 0]
+    resid = np.linalg.norm(np.einsum("nij,nj->ni", cov, vec) - lam[:, None] * vec, axis=1)
+    assert resid.max() < 1e-8 * max(1.0, np.abs(cov).max())
+    ref = np.linalg.eigh(cov[:3000])[1][:, :, 0]
+    assert (1 - np.abs((vec[:3000] * ref).sum(1))).max() < 1e-9
