@@ -1,0 +1,1 @@
+"""Neural network models of ucope (torch): point cloud encoders and heads."""
