@@ -1,0 +1,121 @@
+"""Training items: fixed-size clouds with precomputed FPS indices and per-part point pairs.
+
+Everything random here is drawn from a generator keyed by ``(seed, epoch, sample index)``, so an
+item is the same in any data-loader worker, on any machine and after a resume.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset
+
+from ..errors import InputError
+from ..geometry.sampling import random_subset
+from .config import ModelConfig
+from .pointnet2 import numpy_fps_indices
+
+__all__ = ["TrainingItems", "collate_items", "batch_to", "sample_pairs"]
+
+_FLOAT_FIELDS = ("cam_from_part", "size_m", "joint_pivot", "joint_axis", "joint_state")
+
+
+def sample_pairs(labels: np.ndarray, num_parts: int, pairs_per_part: int, rng: np.random.Generator, p_same: float = 0.5) -> np.ndarray:
+    """Point pairs for each part's voting heads.
+
+    For part ``k`` the first point is drawn from the points labelled ``k`` (from all points if part
+    ``k`` is not visible), the second from part ``k`` with probability ``p_same`` and from the whole
+    cloud otherwise, so the part-score head sees both same-part and mixed pairs.
+
+    Args:
+        labels: ``(N,)`` part labels.
+
+    Returns:
+        ``(K, M, 2)`` int64 indices into the cloud.
+    """
+    N = len(labels)
+    M = int(pairs_per_part)
+    out = np.empty((num_parts, M, 2), dtype=np.int64)
+    for k in range(num_parts):  # a handful of parts
+        own = np.flatnonzero(labels == k)
+        pool = own if len(own) > 0 else np.arange(N)
+        out[k, :, 0] = pool[rng.integers(0, len(pool), M)]
+        same = rng.random(M) < p_same
+        out[k, :, 1] = np.where(same, pool[rng.integers(0, len(pool), M)], rng.integers(0, N, M))
+    return out
+
+
+class TrainingItems(Dataset):
+    """Items for :meth:`ucope.model.network.UCOPENet.compute_loss`, from a sequence of sample dicts.
+
+    Each item holds ``num_points`` points (drawn without replacement where the cloud allows), their
+    normals and labels, the ground-truth fields as float32 tensors, the FPS indices of every encoder
+    level, and ``(K, pairs_per_part, 2)`` pair indices (:func:`sample_pairs`).
+
+    Args:
+        samples: an indexable sequence of sample dicts (:func:`ucope.data.load_dataset`, or generated
+            on the fly).
+        cfg: the model configuration (number of points, pairs, encoder levels).
+        seed: seed of every draw.
+    """
+
+    def __init__(self, samples: Sequence[dict], cfg: ModelConfig, seed: int = 0):
+        self.samples = samples
+        self.cfg = cfg
+        self.seed = int(seed)
+        self.epoch = 0
+
+    def set_epoch(self, epoch: int) -> None:
+        self.epoch = int(epoch)
+
+    def __len__(self) -> int:
+        return len(self.samples)
+
+    def __getitem__(self, i: int) -> dict:
+        s = self.samples[i]
+        cfg = self.cfg
+        K = cfg.num_parts
+        if len(s["size_m"]) != K:
+            raise InputError(f"sample {i} ({s.get('category')}) has {len(s['size_m'])} parts, the model {K} ({cfg.category})")
+        rng = np.random.default_rng(np.random.SeedSequence(entropy=self.seed, spawn_key=(self.epoch, int(i))))
+        idx = random_subset(len(s["points"]), cfg.num_points, rng)
+        pts = np.ascontiguousarray(s["points"][idx], dtype=np.float32)
+        labels = np.asarray(s["part_labels"])[idx].astype(np.int64)
+        fps = numpy_fps_indices(pts, cfg.encoder.npoints)
+        out = {
+            "points": torch.from_numpy(pts),
+            "normals": torch.from_numpy(np.ascontiguousarray(s["normals"][idx], dtype=np.float32)),
+            "part_labels": torch.from_numpy(labels),
+            "joint_type": torch.from_numpy(np.asarray(s["joint_type"], dtype=np.int64).reshape(-1)),
+            "fps_idx": [torch.from_numpy(f) for f in fps],
+            "pair_idx": torch.from_numpy(sample_pairs(labels, K, cfg.pairs_per_part, rng)),
+            "index": torch.tensor(int(i)),
+        }
+        for k in _FLOAT_FIELDS:
+            out[k] = torch.from_numpy(np.asarray(s[k], dtype=np.float32))
+        return out
+
+
+def collate_items(items: list[dict]) -> dict:
+    """Stack items into a batch: every tensor gains a leading ``B``; ``fps_idx`` stays a list (one
+    ``(B, m_l)`` tensor per encoder level)."""
+    if not items:
+        raise InputError("cannot collate an empty list of items")
+    batch = {k: torch.stack([it[k] for it in items]) for k in items[0] if k != "fps_idx"}
+    batch["fps_idx"] = [torch.stack([it["fps_idx"][l] for it in items]) for l in range(len(items[0]["fps_idx"]))]
+    return batch
+
+
+def batch_to(batch: dict, device: torch.device | str) -> dict:
+    """A copy of ``batch`` with every tensor (and the ``fps_idx`` list) on ``device``."""
+    out = {}
+    for k, v in batch.items():
+        if isinstance(v, torch.Tensor):
+            out[k] = v.to(device, non_blocking=True)
+        elif isinstance(v, list):
+            out[k] = [t.to(device, non_blocking=True) if isinstance(t, torch.Tensor) else t for t in v]
+        else:
+            out[k] = v
+    return out

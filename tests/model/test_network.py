@@ -1,0 +1,203 @@
+import functools
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from ucope.data.generate import GenerateConfig, make_sample
+from ucope.errors import InputError
+from ucope.model.batch import TrainingItems, batch_to, collate_items, sample_pairs
+from ucope.model.config import CategoryStats, ModelConfig, compute_category_stats
+from ucope.model.network import UCOPENet
+from ucope.model.pointnet2 import PointNet2Config
+
+TINY_ENCODER = PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
+
+
+@functools.lru_cache(maxsize=None)
+def tiny_samples(category: str, n: int = 8) -> tuple:
+    cfg = GenerateConfig(category=category, split="train", num=n, max_points=600, views_per_instance=2)
+    return tuple(make_sample(cfg, i) for i in range(n))
+
+
+def tiny_config(category: str, **kw) -> ModelConfig:
+    stats = compute_category_stats(tiny_samples(category))
+    base = dict(encoder=TINY_ENCODER, num_points=256, pairs_per_part=48, hidden=32)
+    base.update(kw)
+    return ModelConfig.for_category(category, stats, **base)
+
+
+def tiny_batch(cfg: ModelConfig, n: int = 4, seed: int = 0) -> dict:
+    items = TrainingItems(list(tiny_samples(cfg.category)), cfg, seed=seed)
+    return collate_items([items[i] for i in range(n)])
+
+
+@pytest.mark.parametrize("category, K", [("mug", 1), ("laptop", 2), ("eyeglasses", 3), ("drawer", 4)])
+def test_output_shapes(category, K):
+    torch.manual_seed(0)
+    cfg = tiny_config(category)
+    assert cfg.num_parts == K
+    net = UCOPENet(cfg)
+    b = tiny_batch(cfg, n=3)
+    out = net(b["points"], b["normals"], b["pair_idx"], b["fps_idx"])
+    B, N, M, J = 3, cfg.num_points, cfg.pairs_per_part, K - 1
+    assert out["feats"].shape == (B, N, net.encoder.out_channels)
+    assert out["masks"].shape == (B, N, K)
+    torch.testing.assert_close(out["masks"].sum(-1), torch.ones(B, N))
+    assert ("seg_logits" in out) == (K > 1)
+    assert out["mu_logits"].shape == (B, K, M, cfg.mu_bins)
+    assert out["nu_logits"].shape == (B, K, M, cfg.nu_bins)
+    assert out["alpha_logits"].shape == out["beta_logits"].shape == (B, K, M, cfg.angle_bins)
+    assert out["sign_logits"].shape == (B, K, M, 2)
+    assert out["gamma"].shape == (B, K, M, 3)
+    assert out["part_score"].shape == (B, K, M)
+    if J:
+        assert out["joint_heat"].shape == out["joint_score"].shape == (B, J, N)
+        assert out["joint_offset"].shape == out["joint_dir"].shape == (B, J, N, 3)
+        torch.testing.assert_close(out["joint_dir"].norm(dim=-1), torch.ones(B, J, N))
+    else:
+        assert "joint_heat" not in out
+    # The encoder's own FPS gives the same result as the precomputed indices.
+    out2 = net(b["points"], b["normals"], b["pair_idx"])
+    torch.testing.assert_close(out2["mu_logits"], out["mu_logits"])
+
+
+def test_pair_outputs_do_not_depend_on_other_pairs():
+    """Pairs are independent: a pair's outputs do not change when other pairs are added."""
+    torch.manual_seed(0)
+    cfg = tiny_config("laptop")
+    net = UCOPENet(cfg).eval()
+    b = tiny_batch(cfg, n=2)
+    with torch.no_grad():
+        full = net(b["points"], b["normals"], b["pair_idx"], b["fps_idx"])
+        part = net(b["points"], b["normals"], b["pair_idx"][:, :, :5], b["fps_idx"])
+    torch.testing.assert_close(part["alpha_logits"], full["alpha_logits"][:, :, :5])
+
+
+@pytest.mark.parametrize("category", ["mug", "bottle", "laptop", "drawer"])
+def test_gradients_reach_every_head(category):
+    torch.manual_seed(0)
+    cfg = tiny_config(category)
+    net = UCOPENet(cfg)
+    loss, logs = net.compute_loss(tiny_batch(cfg))
+    assert torch.isfinite(loss) and loss.item() > 0
+    loss.backward()
+    for name, p in net.named_parameters():
+        assert p.grad is not None, name
+        assert torch.isfinite(p.grad).all(), name
+        if name.startswith("pair_out") and cfg.part_symmetry[0] == "y" and cfg.num_parts == 1:
+            continue  # the beta bins of a symmetric part get no gradient (checked below)
+        assert p.grad.abs().sum() > 0, name
+    assert set(logs) >= {"loss", "pose", "mu", "nu", "alpha", "beta", "gamma", "sign", "part_score"}
+    if cfg.num_parts > 1:
+        assert {"seg", "seg_acc", "joint_pivot", "joint_dir", "axis_err_deg"} <= set(logs)
+
+
+def test_symmetric_part_trains_no_right_axis():
+    """A y-symmetric part (bottle) gets no gradient on its beta bins or its right-axis sign bit."""
+    torch.manual_seed(0)
+    cfg = tiny_config("bottle")
+    assert cfg.part_symmetry == ("y",)
+    net = UCOPENet(cfg)
+    loss, _ = net.compute_loss(tiny_batch(cfg))
+    loss.backward()
+    g = net.pair_out.weight.grad[0]  # (H, O)
+    s = net.out_sizes
+    o_beta = s["mu_logits"] + s["nu_logits"] + s["alpha_logits"]
+    o_sign = o_beta + s["beta_logits"]
+    assert g[:, o_beta : o_beta + s["beta_logits"]].abs().max() == 0
+    assert g[:, o_sign + 1].abs().max() == 0  # right-axis sign bit
+    assert g[:, o_sign].abs().max() > 0  # up-axis sign bit trains
+    assert g[:, s["mu_logits"] + s["nu_logits"] :][:, : s["alpha_logits"]].abs().max() > 0
+
+
+@pytest.mark.parametrize("category", ["laptop", "mug"])
+def test_tiny_model_overfits_tiny_data(category):
+    torch.manual_seed(0)
+    cfg = tiny_config(category)
+    net = UCOPENet(cfg)
+    b = tiny_batch(cfg, n=4)
+    opt = torch.optim.Adam(net.parameters(), lr=3e-3)
+    first = None
+    for _ in range(200):
+        loss, logs = net.compute_loss(b)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        first = logs if first is None else first
+    assert logs["loss"] < 0.6 * first["loss"], (first["loss"], logs["loss"])
+    assert logs["mu"] < 0.7 * first["mu"]
+    assert logs["mu_err_m"] < first["mu_err_m"]
+    if cfg.num_parts > 1:
+        assert logs["seg_acc"] > 0.9
+        assert logs["axis_err_deg"] < first["axis_err_deg"]
+
+
+def test_batch_items_are_deterministic_and_epoch_dependent():
+    cfg = tiny_config("laptop")
+    items = TrainingItems(list(tiny_samples("laptop")), cfg, seed=3)
+    a, b = items[2], items[2]
+    for k in ("points", "pair_idx", "part_labels"):
+        assert torch.equal(a[k], b[k])
+    assert all(torch.equal(x, y) for x, y in zip(a["fps_idx"], b["fps_idx"]))
+    items.set_epoch(1)
+    assert not torch.equal(items[2]["pair_idx"], a["pair_idx"])
+    assert a["points"].shape == (cfg.num_points, 3)
+    assert a["pair_idx"].shape == (cfg.num_parts, cfg.pairs_per_part, 2)
+    batch = batch_to(collate_items([a, b]), "cpu")
+    assert batch["points"].shape == (2, cfg.num_points, 3)
+    assert [t.shape for t in batch["fps_idx"]] == [(2, 64), (2, 16)]
+
+
+def test_sample_pairs_first_point_on_its_part(rng):
+    labels = np.array([0] * 50 + [1] * 5 + [2] * 0)
+    pairs = sample_pairs(labels, 3, 400, rng)
+    assert pairs.shape == (3, 400, 2)
+    assert np.all(labels[pairs[0, :, 0]] == 0) and np.all(labels[pairs[1, :, 0]] == 1)
+    same = labels[pairs[1, :, 1]] == 1
+    assert 0.4 < same.mean() < 0.7  # half drawn from the part, plus the few random hits
+    assert pairs[2].min() >= 0 and pairs[2].max() < len(labels)  # invisible part: anywhere
+
+
+def test_config_round_trip_and_errors():
+    cfg = tiny_config("eyeglasses")
+    d = cfg.to_dict()
+    import json
+
+    assert ModelConfig.from_dict(json.loads(json.dumps(d))) == cfg
+    assert cfg.joint_parents == (0, 0) and cfg.joint_children == (1, 2) and cfg.joint_types == (0, 0)
+    assert ModelConfig.for_category("drawer", compute_category_stats(tiny_samples("drawer"))).joint_types == (1, 1, 1)
+    with pytest.raises(InputError, match="unknown model config fields"):
+        ModelConfig.from_dict({**d, "bogus": 1})
+    with pytest.raises(InputError, match="malformed"):
+        ModelConfig.from_dict({k: v for k, v in d.items() if k != "stats"})
+    with pytest.raises(InputError, match="size"):
+        ModelConfig.for_category("mug", cfg.stats, size="huge")
+    with pytest.raises(InputError, match="positive"):
+        CategoryStats(vote_range_m=(0.1,), mean_size_m=((0.1, 0.0, 0.1),), norm_scale_m=0.1)
+    with pytest.raises(InputError, match="empty"):
+        compute_category_stats([])
+
+
+def test_category_stats_bound_the_vote_parameters():
+    samples = tiny_samples("laptop")
+    st = compute_category_stats(samples)
+    for s in samples:
+        for k in range(2):
+            pts = s["points"][s["part_labels"] == k]
+            if len(pts):
+                c = s["cam_from_part"][k][:3, 3]
+                assert np.linalg.norm(pts - c, axis=1).max() <= st.vote_range_m[k]
+    assert 0.05 < st.norm_scale_m < 0.5
+    assert math.isclose(st.mean_size_m[0][0], st.mean_size_m[1][0], rel_tol=1e-6)  # lid as wide as the base
+
+
+def test_bad_input_shapes():
+    cfg = tiny_config("mug")
+    net = UCOPENet(cfg)
+    pts = torch.zeros(1, 300, 3)
+    with pytest.raises(InputError, match="points and normals"):
+        net(pts, torch.zeros(1, 300, 2))
+    with pytest.raises(InputError, match="pair_idx"):
+        net(torch.randn(1, 300, 3), torch.randn(1, 300, 3), torch.zeros(1, 2, 5, 2, dtype=torch.long))
