@@ -1,0 +1,366 @@
+"""Tests for ucope.eval.metrics on hand-made cases with known answers."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from ucope.errors import InputError
+from ucope.eval.metrics import (
+    average_precision,
+    axis_angle_error_deg,
+    box_iou,
+    compute_map,
+    joint_errors,
+    line_distance_m,
+    normalized_translation_error,
+    part_errors,
+    rotation_error_deg,
+    segmentation_accuracy,
+    segmentation_iou,
+    state_error,
+    summarize_joints,
+    summarize_parts,
+    translation_error_m,
+)
+from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
+
+X, Y, Z = np.eye(3)
+
+
+def rot(axis, deg: float) -> np.ndarray:
+    return rotation_about_axis(np.asarray(axis, dtype=float), np.radians(deg))
+
+
+def pose(R=None, t=(0.0, 0.0, 1.0)) -> np.ndarray:
+    return make_transform(np.eye(3) if R is None else R, np.asarray(t, dtype=float))
+
+
+# --------------------------------------------------------------------------------------------------
+# per part
+# --------------------------------------------------------------------------------------------------
+
+
+def test_identical_boxes_iou_one(rng):
+    T = pose(random_rotation(rng), (0.1, -0.2, 0.9))
+    assert box_iou(T, [0.3, 0.1, 0.2], T, [0.3, 0.1, 0.2]) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_box_shifted_by_half_its_length_iou_one_third(rng):
+    R = random_rotation(rng)
+    size = np.array([0.4, 0.1, 0.2])
+    T_gt = pose(R, (0.0, 0.0, 1.0))
+    T_pred = pose(R, T_gt[:3, 3] + 0.5 * size[0] * R[:, 0])  # half a length along the box's own x
+    # intersection = half the box, union = 1.5 boxes
+    assert box_iou(T_pred, size, T_gt, size) == pytest.approx(1.0 / 3.0, abs=1e-9)
+    assert box_iou(T_pred, size, T_gt, size, symmetry="none") == pytest.approx(1.0 / 3.0, abs=1e-9)
+
+
+def test_rotation_error_known_angles(rng):
+    R = random_rotation(rng)
+    assert rotation_error_deg(R, R) == pytest.approx(0.0, abs=1e-6)
+    assert rotation_error_deg(R @ rot(X, 90), R) == pytest.approx(90.0, abs=1e-9)
+    assert rotation_error_deg(R, R @ rot([1, 2, 3], 90)) == pytest.approx(90.0, abs=1e-9)
+    assert rotation_error_deg(R @ rot(Z, 180), R) == pytest.approx(180.0, abs=1e-9)
+    # small angles are accurate (atan2, not arccos of a cosine near 1)
+    assert rotation_error_deg(R @ rot(Y, 1e-4), R) == pytest.approx(1e-4, rel=1e-5)
+
+
+def test_symmetric_part_rotated_about_y_has_zero_error_and_iou_one(rng):
+    R = random_rotation(rng)
+    size = np.array([0.1, 0.2, 0.06])  # x != z: a y rotation changes the box
+    T_gt = pose(R, (0.05, 0.1, 0.8))
+    T_pred = pose(R @ rot(Y, 40), T_gt[:3, 3])
+    assert rotation_error_deg(T_pred[:3, :3], T_gt[:3, :3], symmetry="y") == pytest.approx(0.0, abs=1e-6)
+    assert box_iou(T_pred, size, T_gt, size, symmetry="y") == pytest.approx(1.0, abs=1e-6)
+    # without symmetry the same prediction is 40 degrees off and its box overlaps less
+    assert rotation_error_deg(T_pred[:3, :3], T_gt[:3, :3]) == pytest.approx(40.0, abs=1e-9)
+    assert box_iou(T_pred, size, T_gt, size) < 0.9
+    # a tilt of the y axis is seen by the symmetric error
+    assert rotation_error_deg(R @ rot(X, 10), R, symmetry="y") == pytest.approx(10.0, abs=1e-9)
+    assert rotation_error_deg(R @ rot(X, 180), R, symmetry="y") == pytest.approx(180.0, abs=1e-9)
+
+
+def test_translation_errors():
+    assert translation_error_m([0.03, 0.04, 1.0], [0.0, 0.0, 1.0]) == pytest.approx(0.05)
+    # GT diagonal = |(0.3, 0.4, 1.2)| = 1.3
+    assert normalized_translation_error([0.03, 0.04, 1.0], [0.0, 0.0, 1.0], [0.3, 0.4, 1.2]) == pytest.approx(0.05 / 1.3)
+
+
+def test_part_errors_dict_is_plain_floats():
+    size = np.array([0.2, 0.2, 0.2])
+    e = part_errors(pose(rot(Z, 90), (0.1, 0.0, 1.0)), size, pose(None, (0.0, 0.0, 1.0)), size)
+    assert set(e) == {"rotation_deg", "translation_m", "translation_norm", "iou"}
+    assert all(type(v) is float for v in e.values())
+    assert e["rotation_deg"] == pytest.approx(90.0)
+    assert e["translation_m"] == pytest.approx(0.1)
+    assert e["translation_norm"] == pytest.approx(0.1 / math.sqrt(0.12))
+    assert e["iou"] == pytest.approx(1.0 / 3.0)  # a cube turned 90 degrees is itself, shifted by half
+
+
+# --------------------------------------------------------------------------------------------------
+# per joint
+# --------------------------------------------------------------------------------------------------
+
+
+def test_axis_angle_error():
+    assert axis_angle_error_deg([0, 0, 1], [0, 0, -2]) == pytest.approx(0.0, abs=1e-12)  # opposite: 0
+    assert axis_angle_error_deg(X, Y) == pytest.approx(90.0)
+    assert axis_angle_error_deg(rot(Z, 30) @ X, X) == pytest.approx(30.0)
+    assert axis_angle_error_deg(rot(Z, 150) @ X, X) == pytest.approx(30.0)  # min(theta, 180 - theta)
+
+
+def test_line_distance_parallel_lines_is_their_separation():
+    assert line_distance_m([0, 0, 0], Z, [0.3, 0.4, 7.0], Z) == pytest.approx(0.5)
+    assert line_distance_m([0, 0, 0], Z, [0.3, 0.4, -2.0], -Z) == pytest.approx(0.5)  # anti-parallel
+    assert line_distance_m([0, 0, 0], Z, [0.3, 0.4, 0.0], Z + 1e-9 * X) == pytest.approx(0.5)  # within tolerance
+    assert line_distance_m([1, 2, 3], X, [1, 2, 3], X) == 0.0  # the same line
+
+
+def test_line_distance_intersecting_and_skew_lines():
+    # x = 1 (along y) meets the diagonal through the origin at (1, 1, 0)
+    assert line_distance_m([1, 0, 0], Y, [0, 0, 0], [1, 1, 0]) == pytest.approx(0.0, abs=1e-12)
+    # the x axis and a line along y at z = 2: common perpendicular along z, length 2
+    assert line_distance_m([0, 0, 0], X, [5, -3, 2], Y) == pytest.approx(2.0)
+    # the x axis and the line through (0, 0, 2) along (0, 1, 1): n = (0, -1, 1), d.n / |n| = 2 / sqrt(2)
+    assert line_distance_m([0, 0, 0], X, [0, 0, 2], [0, 1, 1]) == pytest.approx(math.sqrt(2.0))
+    # skew at 45 degrees, in the planes z = 0 and z = 2: distance 2
+    assert line_distance_m([0, 0, 0], X, [4, 1, 2], [1, 1, 0]) == pytest.approx(2.0)
+
+
+def test_state_error():
+    assert state_error(0.1, 0.3, "revolute") == pytest.approx(math.degrees(0.2))
+    assert state_error(0.1, 0.3, 0) == pytest.approx(math.degrees(0.2))
+    assert state_error(3.1, -3.1, "revolute") == pytest.approx(math.degrees(2 * math.pi - 6.2))  # wraps
+    assert state_error(0.10, 0.25, "prismatic") == pytest.approx(0.15)
+    assert state_error(0.10, 0.25, 1) == pytest.approx(0.15)
+    with pytest.raises(InputError, match="fixed"):
+        state_error(0.0, 0.0, 2)
+    with pytest.raises(InputError, match="joint_type"):
+        state_error(0.0, 0.0, "hinge")
+
+
+def test_joint_errors_dicts():
+    rev = joint_errors(X, [0, 0.1, 1], 0.5, -X, [0, 0, 1], 0.4, "revolute")
+    assert rev["joint_type"] == "revolute" and rev["state_unit"] == "deg"
+    assert rev["axis_deg"] == pytest.approx(0.0, abs=1e-12)
+    assert rev["pivot_m"] == pytest.approx(0.1)
+    assert rev["state_error"] == pytest.approx(math.degrees(0.1))
+    pri = joint_errors(Z, None, 0.2, Z, None, 0.25, 1)
+    assert pri["pivot_m"] is None and pri["state_unit"] == "m"
+    assert pri["state_error"] == pytest.approx(0.05)
+    json.dumps([rev, pri], allow_nan=False)
+
+
+# --------------------------------------------------------------------------------------------------
+# segmentation
+# --------------------------------------------------------------------------------------------------
+
+
+def test_segmentation_iou_and_accuracy_hand_example():
+    pred = np.array([0, 0, 1, 1, 1, 2, 2])
+    gt = np.array([0, 0, 0, 1, 1, 2, 2])
+    # part 0: pred {0,1}, gt {0,1,2} -> 2/3; part 1: pred {2,3,4}, gt {3,4} -> 2/3; part 2: {5,6} both -> 1;
+    # part 3: absent from both -> NaN
+    iou = segmentation_iou(pred, gt, 4)
+    np.testing.assert_allclose(iou[:3], [2 / 3, 2 / 3, 1.0])
+    assert np.isnan(iou[3])
+    assert segmentation_accuracy(pred, gt) == pytest.approx(6 / 7)
+    # an unassigned point (-1) only enlarges its GT part's union
+    iou = segmentation_iou([0, -1, 1], [0, 0, 1], 2)
+    np.testing.assert_allclose(iou, [0.5, 1.0])
+    assert segmentation_accuracy([0, -1, 1], [0, 0, 1]) == pytest.approx(2 / 3)
+    # a part predicted but absent from the GT has IoU 0
+    np.testing.assert_allclose(segmentation_iou([1, 1], [0, 0], 2), [0.0, 0.0])
+
+
+# --------------------------------------------------------------------------------------------------
+# average precision and mAP
+# --------------------------------------------------------------------------------------------------
+
+
+def test_average_precision_hand_cases():
+    # sorted: TP, FP, TP, TP with 3 GT: precisions 1, 1/2, 2/3, 3/4 at recalls 1/3, 1/3, 2/3, 1;
+    # envelope 1, 3/4, 3/4 -> AP = 1/3 * 1 + 1/3 * 3/4 + 1/3 * 3/4 = 5/6
+    assert average_precision([1, 1, 0, 1], [0.7, 0.9, 0.8, 0.6], 3) == pytest.approx(5 / 6)  # unsorted input
+    assert average_precision([True, True], [0.2, 0.1], 2) == pytest.approx(1.0)
+    assert average_precision([1, 1], [0.2, 0.1], 4) == pytest.approx(0.5)  # recall never reaches 1
+    assert average_precision([], [], 3) == 0.0
+    assert average_precision([0, 0], [0.5, 0.4], 1) == 0.0
+
+
+def cube_gt(t, size=0.1):
+    return {"class": "camera", "cam_from_object": pose(None, t), "size_m": [size] * 3}
+
+
+def test_compute_map_hand_built_set():
+    """Worked by hand.
+
+    camera (0.1 m cubes): image 0 has gt0 at (0, 0, 1); image 1 has gt1 at (-0.3, 0, 1) and gt2 at (0.3, 0, 1);
+    image 2 has no camera. Predictions by descending score:
+      e 0.95 image 2, on gt0's pose          -> FP everywhere (no GT in its image)
+      a 0.90 image 0, = gt0                  -> IoU 1, 0 deg, 0 cm
+      b 0.80 image 0, = gt0 (duplicate)      -> FP everywhere (gt0 already taken by a)
+      c 0.70 image 1, gt1 moved 3 cm along x -> IoU 0.07 / 0.13 = 0.538, 0 deg, 3 cm
+      d 0.60 image 1, gt2 turned 90 deg about z -> IoU 1 (a cube), 90 deg, 0 cm
+    With 3 GT (recall steps of 1/3):
+      3D50:  FP TP FP TP TP: precisions 0 .5 .33 .5 .6 -> envelope .6 at recalls 1/3, 2/3, 1 -> AP 0.6
+      3D75:  FP TP FP FP TP: precisions 0 .5 .33 .25 .4 -> .5 at 1/3, .4 at 2/3 -> AP (.5 + .4) / 3 = 0.3
+      5deg2cm, 10deg2cm: only a -> .5 at 1/3 -> AP 1/6
+      5deg5cm, 10deg5cm: a and c: precisions 0 .5 .33 .5 .4 -> .5 at 1/3 and 2/3 -> AP 1/3
+    bottle (symmetric about y): one GT, one prediction turned 40 deg about y -> 0 deg, IoU 1: AP 1 everywhere.
+    can: a prediction but no GT -> AP None, left out of the mean.
+    Mean over camera and bottle: 3D50 0.8, 3D75 0.65, x deg 2cm 7/12, x deg 5cm 2/3.
+    """
+    bottle_T = pose(rot(X, 20), (0.0, 0.3, 1.2))
+    bottle_size = [0.06, 0.2, 0.08]
+    records = [
+        {"gt": [cube_gt((0, 0, 1)), {"class": "bottle", "cam_from_object": bottle_T, "size_m": bottle_size}],
+         "pred": [
+             {**cube_gt((0, 0, 1)), "score": 0.9},
+             {**cube_gt((0, 0, 1)), "score": 0.8},
+             {"class": "bottle", "cam_from_object": bottle_T @ pose(rot(Y, 40), (0, 0, 0)), "size_m": bottle_size,
+              "score": 0.5},
+         ]},
+        {"gt": [cube_gt((-0.3, 0, 1)), cube_gt((0.3, 0, 1))],
+         "pred": [
+             {**cube_gt((-0.27, 0, 1)), "score": 0.7},
+             {"class": "camera", "cam_from_object": pose(rot(Z, 90), (0.3, 0, 1)), "size_m": [0.1] * 3, "score": 0.6},
+         ]},
+        {"gt": [],
+         "pred": [{**cube_gt((0, 0, 1)), "score": 0.95},
+                  {"class": "can", "cam_from_object": pose(), "size_m": [0.07, 0.12, 0.07], "score": 0.9}]},
+    ]
+    res = compute_map(records)
+    json.dumps(res, allow_nan=False)
+    assert "exact" in res["iou_method"] and "axis-aligned" in res["iou_method"]
+    assert res["metrics"] == ["3D50", "3D75", "5deg2cm", "5deg5cm", "10deg2cm", "10deg5cm"]
+    cam = res["per_class"]["camera"]
+    assert cam["3D50"] == pytest.approx(0.6)
+    assert cam["3D75"] == pytest.approx(0.3)
+    assert cam["5deg2cm"] == pytest.approx(1 / 6) and cam["10deg2cm"] == pytest.approx(1 / 6)
+    assert cam["5deg5cm"] == pytest.approx(1 / 3) and cam["10deg5cm"] == pytest.approx(1 / 3)
+    assert all(v == pytest.approx(1.0) for v in res["per_class"]["bottle"].values())
+    assert all(v is None for v in res["per_class"]["can"].values())
+    assert res["num_gt"] == {"bottle": 1, "camera": 3, "can": 0}
+    assert res["num_pred"] == {"bottle": 1, "camera": 5, "can": 1}
+    assert res["classes_with_gt"] == ["bottle", "camera"]
+    expected_mean = {"3D50": 0.8, "3D75": 0.65, "5deg2cm": 7 / 12, "5deg5cm": 2 / 3, "10deg2cm": 7 / 12, "10deg5cm": 2 / 3}
+    for name, value in expected_mean.items():
+        assert res["mean"][name] == pytest.approx(value), name
+
+
+def test_compute_map_greedy_match_takes_the_best_gt():
+    """1 m cubes: gt1 at x = 0, gt2 at x = 0.3 in one image.
+
+    p1 (score 0.9) at x = 0.2: IoU 0.8/1.2 = 0.67 with gt1 and 0.9/1.1 = 0.82 with gt2; 20 cm and 10 cm away.
+    p2 (score 0.8) at x = 0.35: IoU 0.95/1.05 with gt2 but 0.65/1.35 = 0.48 < 0.5 with gt1; 5 cm and 35 cm away.
+    p1 must take gt2 (best IoU / smallest error), leaving p2 unmatched: TP, FP with 2 GT -> AP 0.5.
+    (Taking the first passing GT, gt1, or matching p2 first, would give AP 1.)
+    """
+    gts = [{"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1]} for x in (0.0, 0.3)]
+    preds = [{"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1], "score": s}
+             for x, s in ((0.35, 0.8), (0.2, 0.9))]  # listed in the wrong order: matching must sort by score
+    res = compute_map([{"gt": gts, "pred": preds}], iou_thresholds=[0.5], pose_thresholds_deg_cm=[(5, 30)])
+    assert res["metrics"] == ["3D50", "5deg30cm"]
+    assert res["per_class"]["camera"]["3D50"] == pytest.approx(0.5)
+    assert res["per_class"]["camera"]["5deg30cm"] == pytest.approx(0.5)
+
+
+def test_compute_map_mug_handle_special_case():
+    size = [0.12, 0.1, 0.09]
+    T = pose(None, (0.0, 0.0, 0.8))
+    pred = {"class": "mug", "cam_from_object": T @ pose(rot(Y, 30), (0, 0, 0)), "size_m": size, "score": 1.0}
+    hidden = compute_map([{"gt": [{"class": "mug", "cam_from_object": T, "size_m": size, "handle_visible": False}],
+                           "pred": [pred]}], iou_thresholds=[0.75])
+    visible = compute_map([{"gt": [{"class": "mug", "cam_from_object": T, "size_m": size}], "pred": [pred]}],
+                          iou_thresholds=[0.75])
+    # handle not visible: symmetric about y, the 30 degree turn costs nothing
+    assert hidden["mean"]["5deg2cm"] == pytest.approx(1.0)
+    assert hidden["mean"]["3D75"] == pytest.approx(1.0)
+    # handle visible (the default): a 30 degree error
+    assert visible["mean"]["10deg5cm"] == 0.0
+
+
+# --------------------------------------------------------------------------------------------------
+# summaries
+# --------------------------------------------------------------------------------------------------
+
+
+def test_summarize_parts():
+    def e(r, t, iou):
+        return {"rotation_deg": r, "translation_m": t, "translation_norm": t / 2, "iou": iou}
+
+    samples = [
+        [e(2.0, 0.01, 0.9), e(4.0, 0.04, 0.6)],
+        [e(6.0, 0.02, 0.8), e(20.0, 0.30, 0.1)],
+        [e(1.0, 0.03, 0.7), None],  # part 1 not predicted: a failure, out of the means
+    ]
+    s = summarize_parts(samples)
+    json.dumps(s, allow_nan=False)
+    assert s["num_samples"] == 3 and s["num_parts"] == 2 and s["num_missing"] == [0, 1]
+    assert s["rotation_deg"]["mean"] == pytest.approx([3.0, 12.0])
+    assert s["rotation_deg"]["median"] == pytest.approx([2.0, 12.0])
+    assert s["translation_m"]["mean"] == pytest.approx([0.02, 0.17])
+    assert s["translation_norm"]["median"] == pytest.approx([0.01, 0.085])
+    assert s["iou"]["mean"] == pytest.approx([0.8, 0.35])
+    assert s["fraction"]["5deg5cm"] == pytest.approx([2 / 3, 1 / 3])
+    assert s["fraction"]["10deg10cm"] == pytest.approx([1.0, 1 / 3])
+    assert s["fraction"]["iou50"] == pytest.approx([1.0, 1 / 3])
+    assert s["fraction"]["iou75"] == pytest.approx([2 / 3, 0.0])
+    with pytest.raises(InputError, match="same number"):
+        summarize_parts([[e(1, 0.1, 0.5)], [e(1, 0.1, 0.5), e(1, 0.1, 0.5)]])
+
+
+def test_summarize_joints():
+    j1 = joint_errors(X, [0, 0, 1], 0.5, X, [0, 0.1, 1], 0.4, "revolute")
+    j2 = joint_errors(X, [0, 0, 1], 0.5, X, [0, 0.3, 1], 0.5, "revolute")
+    s = summarize_joints([[j1], [j2], [None]])
+    json.dumps(s, allow_nan=False)
+    assert s["joint_type"] == ["revolute"] and s["state_unit"] == ["deg"]
+    assert s["pivot_m"]["mean"] == pytest.approx([0.2])
+    assert s["state_error"]["median"] == pytest.approx([math.degrees(0.05)])
+
+
+# --------------------------------------------------------------------------------------------------
+# bad inputs
+# --------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: rotation_error_deg(np.eye(3) * 2, np.eye(3)), "R_pred"),
+        (lambda: rotation_error_deg(np.eye(3), np.diag([1.0, 1.0, -1.0])), "R_gt"),
+        (lambda: rotation_error_deg(np.eye(4), np.eye(3)), r"shape \(3, 3\)"),
+        (lambda: rotation_error_deg(np.eye(3), np.eye(3), symmetry="z"), "symmetry"),
+        (lambda: translation_error_m([0, 0, np.nan], [0, 0, 0]), "non-finite"),
+        (lambda: normalized_translation_error([0, 0, 0], [0, 0, 0], [0.1, 0.0, 0.1]), "size_gt"),
+        (lambda: box_iou(np.eye(4), [0.1, 0.1, -0.1], np.eye(4), [0.1] * 3), "size_pred"),
+        (lambda: box_iou(np.eye(4), [0.1] * 3, np.ones((4, 4)), [0.1] * 3), "cam_from_part_gt"),
+        (lambda: axis_angle_error_deg([0, 0, 0], Z), "u_pred"),
+        (lambda: line_distance_m([0, 0], Z, [0, 0, 0], Z), "p1"),
+        (lambda: state_error(float("inf"), 0.0, 0), "pred"),
+        (lambda: segmentation_iou([0, 1], [0, 1, 1], 2), "same shape"),
+        (lambda: segmentation_iou([0, 2], [0, 1], 2), "pred_labels"),
+        (lambda: segmentation_iou([0.0, 1.0], [0, 1], 2), "integers"),
+        (lambda: segmentation_iou([0, 1], [0, 1], 0), "num_parts"),
+        (lambda: segmentation_accuracy([], []), "non-empty"),
+        (lambda: average_precision([1, 0], [0.5], 1), "scores"),
+        (lambda: average_precision([1, 1], [0.5, 0.4], 1), "true positives"),
+        (lambda: average_precision([1], [0.5], 0), "num_gt"),
+        (lambda: average_precision([2], [0.5], 2), "tp"),
+        (lambda: compute_map({"gt": [], "pred": []}), "records"),
+        (lambda: compute_map([{"gt": []}]), r"records\[0\]"),
+        (lambda: compute_map([{"gt": [], "pred": [cube_gt((0, 0, 1))]}]), r"records\[0\]\['pred'\]\[0\].*score"),
+        (lambda: compute_map([{"gt": [{**cube_gt((0, 0, 1)), "size_m": [1, 1]}], "pred": []}]), "size_m"),
+        (lambda: compute_map([], iou_thresholds=[1.5]), "iou_thresholds"),
+        (lambda: summarize_parts([]), "non-empty"),
+    ],
+)
+def test_bad_inputs_raise_input_error(call, match):
+    with pytest.raises(InputError, match=match):
+        call()
