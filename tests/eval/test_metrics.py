@@ -252,6 +252,16 @@ def test_compute_map_hand_built_set():
     for name, value in expected_mean.items():
         assert res["mean"][name] == pytest.approx(value), name
 
+    # NOCS reference gating (opt-in): pose APs only over the pairs matched at IoU >= 0.1, i.e. predictions
+    # a, c, d and all 3 GT (e and b are dropped, not false positives): 5deg2cm TP FP FP -> 1/3,
+    # 5deg5cm TP TP FP -> 2/3; the IoU metrics do not change.
+    gated = compute_map(records, pose_iou_gate=0.1)
+    cam = gated["per_class"]["camera"]
+    assert cam["5deg2cm"] == pytest.approx(1 / 3) and cam["10deg2cm"] == pytest.approx(1 / 3)
+    assert cam["5deg5cm"] == pytest.approx(2 / 3) and cam["10deg5cm"] == pytest.approx(2 / 3)
+    assert cam["3D50"] == pytest.approx(0.6) and cam["3D75"] == pytest.approx(0.3)
+    assert gated["pose_iou_gate"] == 0.1 and res["pose_iou_gate"] is None
+
 
 def test_compute_map_greedy_match_takes_the_best_gt():
     """1 m cubes: gt1 at x = 0, gt2 at x = 0.3 in one image.
@@ -268,6 +278,15 @@ def test_compute_map_greedy_match_takes_the_best_gt():
     assert res["metrics"] == ["3D50", "5deg30cm"]
     assert res["per_class"]["camera"]["3D50"] == pytest.approx(0.5)
     assert res["per_class"]["camera"]["5deg30cm"] == pytest.approx(0.5)
+
+
+def test_compute_map_pose_gate_drops_undetected_gt():
+    # two GT cameras, one exact prediction: ungated, recall stops at 1/2 (AP 0.5); gated, the missed GT is
+    # dropped from the pose evaluation as in the NOCS reference code (AP 1)
+    rec = [{"gt": [cube_gt((0, 0, 1)), cube_gt((0.5, 0, 1))], "pred": [{**cube_gt((0, 0, 1)), "score": 1.0}]}]
+    assert compute_map(rec)["mean"]["5deg2cm"] == pytest.approx(0.5)
+    assert compute_map(rec, pose_iou_gate=0.1)["mean"]["5deg2cm"] == pytest.approx(1.0)
+    assert compute_map(rec, pose_iou_gate=0.1)["mean"]["3D50"] == pytest.approx(0.5)
 
 
 def test_compute_map_mug_handle_special_case():
@@ -358,6 +377,7 @@ def test_summarize_joints():
         (lambda: compute_map([{"gt": [], "pred": [cube_gt((0, 0, 1))]}]), r"records\[0\]\['pred'\]\[0\].*score"),
         (lambda: compute_map([{"gt": [{**cube_gt((0, 0, 1)), "size_m": [1, 1]}], "pred": []}]), "size_m"),
         (lambda: compute_map([], iou_thresholds=[1.5]), "iou_thresholds"),
+        (lambda: compute_map([], pose_iou_gate=0.0), "pose_iou_gate"),
         (lambda: summarize_parts([]), "non-empty"),
     ],
 )

@@ -504,6 +504,7 @@ def compute_map(
     pose_thresholds_deg_cm: Sequence[tuple[float, float]] = ((5, 2), (5, 5), (10, 2), (10, 5)),
     symmetric_classes: Sequence[str] = NOCS_SYMMETRIC_CLASSES,
     num_angles: int = 36,
+    pose_iou_gate: float | None = None,
 ) -> dict:
     """NOCS-style mean average precision for rigid categories, with the exact oriented-box IoU.
 
@@ -534,8 +535,11 @@ def compute_map(
     * AP: VOC all-point interpolation (:func:`average_precision`).  A class with ground truth but no
       predictions has AP 0; a class without ground truth has AP ``None`` and is left out of the mean.
       The mean is over the classes that have ground truth.
-    * Not done (as in the anchors' rules, unlike the NOCS reference code): no gating of the pose
-      metrics by a minimum IoU match.
+    * Pose gating (off by default, as in the anchors' rules): with ``pose_iou_gate=0.1`` the pose
+      metrics follow the NOCS reference code's ``use_matches_for_pose=True, iou_pose_thres=0.1``: the
+      IoU matching is run at the gate first, and the pose APs are computed over the matched
+      predictions and matched GT objects only (the unmatched ones are dropped, not counted as false
+      positives or misses).  Use it only to compare with tables produced by that code.
 
     Args:
         records: the per-image records described above.
@@ -545,6 +549,7 @@ def compute_map(
         pose_thresholds_deg_cm: ``(degrees, centimetres)`` pairs; names ``5deg2cm`` etc.
         symmetric_classes: classes symmetric about their y axis.
         num_angles: sweep resolution of the symmetric IoU (see :func:`box_iou`).
+        pose_iou_gate: ``None`` (default) or an IoU in ``(0, 1]``; see "Pose gating" above.
 
     Returns:
         A JSON-friendly dict::
@@ -555,7 +560,7 @@ def compute_map(
              "per_class": {class: {metric: AP or None}},
              "num_gt": {class: int}, "num_pred": {class: int},
              "classes_with_gt": [...], "symmetric_classes": [...],
-             "matching": str, "interpolation": str}
+             "matching": str, "pose_iou_gate": float or None, "interpolation": str}
 
         APs are fractions in ``[0, 1]`` (NOCS tables print percent).
 
@@ -587,6 +592,11 @@ def compute_map(
         if deg < 0 or cm < 0:
             raise InputError(f"pose thresholds must be non-negative, got {pair!r}")
         pose_thr.append((deg, cm))
+    gate = None
+    if pose_iou_gate is not None:
+        gate = _scalar(pose_iou_gate, "pose_iou_gate")
+        if not 0.0 < gate <= 1.0:
+            raise InputError(f"pose_iou_gate must be None or lie in (0, 1], got {gate}")
     if isinstance(symmetric_classes, str):
         raise InputError("symmetric_classes must be a list of class names, not a single string")
     sym_classes = set(symmetric_classes)
@@ -624,28 +634,44 @@ def compute_map(
         order = sorted(range(len(dets)), key=lambda d: -dets[d][0])  # stable
         scores = np.array([dets[d][0] for d in order])
 
-        def greedy(passes, cost) -> np.ndarray:
-            """TP flags, in ``order``, of greedy matching: ``passes``/``cost`` map (iou, rot, trans) arrays."""
-            matched = [np.zeros(err[0].shape[1], dtype=bool) for err in pair_err]
-            tp = np.zeros(len(order), dtype=np.int64)
-            for rank, d in enumerate(order):
-                _, im, a = dets[d]
+        def greedy(passes, cost, ranks, allowed):
+            """Greedy matching of the detections ``ranks`` (indices into ``order``) to the GT objects
+            ``allowed`` (per image, a bool mask); ``passes`` / ``cost`` map (iou, rot, trans) rows.
+            Returns the TP flags (one per rank) and the matched GT mask per image."""
+            matched = [np.zeros(len(m), dtype=bool) for m in allowed]
+            tp = np.zeros(len(ranks), dtype=np.int64)
+            for n, rank in enumerate(ranks):
+                _, im, a = dets[order[rank]]
                 iou, rot, trans = (e[a] for e in pair_err[im])
-                ok = passes(iou, rot, trans) & ~matched[im]
+                ok = passes(iou, rot, trans) & allowed[im] & ~matched[im]
                 if np.any(ok):
-                    c = np.where(ok, cost(iou, rot, trans), np.inf)
-                    b = int(np.argmin(c))
-                    matched[im][b] = True
-                    tp[rank] = 1
-            return tp
+                    matched[im][int(np.argmin(np.where(ok, cost(iou, rot, trans), np.inf)))] = True
+                    tp[n] = 1
+            return tp, matched
 
+        def by_iou(t):
+            return (lambda iou, rot, tr: iou >= t), (lambda iou, rot, tr: -iou)
+
+        def by_pose(deg, cm):
+            return (lambda iou, rot, tr: (rot <= deg) & (tr <= cm)), (lambda iou, rot, tr: rot + tr)
+
+        all_ranks = list(range(len(order)))
+        all_gt = [np.ones(err[0].shape[1], dtype=bool) for err in pair_err]
         results = {}
         for t, name in zip(iou_thr, metrics[: len(iou_thr)]):
-            tp = greedy(lambda iou, rot, tr, t=t: iou >= t, lambda iou, rot, tr: -iou)
+            tp, _ = greedy(*by_iou(t), all_ranks, all_gt)
             results[name] = average_precision(tp, scores, n_gt) if n_gt else None
+        pose_ranks, pose_gt, pose_n_gt = all_ranks, all_gt, n_gt
+        if pose_iou_gate is not None:  # NOCS reference: keep only the pairs matched at IoU >= gate
+            gate_tp, pose_gt = greedy(*by_iou(gate), all_ranks, all_gt)
+            pose_ranks = [r for r in all_ranks if gate_tp[r]]
+            pose_n_gt = int(sum(m.sum() for m in pose_gt))
         for (deg, cm), name in zip(pose_thr, metrics[len(iou_thr):]):
-            tp = greedy(lambda iou, rot, tr, deg=deg, cm=cm: (rot <= deg) & (tr <= cm), lambda iou, rot, tr: rot + tr)
-            results[name] = average_precision(tp, scores, n_gt) if n_gt else None
+            tp, _ = greedy(*by_pose(deg, cm), pose_ranks, pose_gt)
+            if not n_gt:
+                results[name] = None
+            else:
+                results[name] = average_precision(tp, scores[pose_ranks], pose_n_gt) if pose_n_gt else 0.0
         per_class[cls] = results
 
     with_gt = [c for c in classes if num_gt[c] > 0]
@@ -660,7 +686,10 @@ def compute_map(
         "classes_with_gt": with_gt,
         "symmetric_classes": sorted(sym_classes),
         "matching": "greedy per class in descending score order; best unmatched GT passing the threshold "
-                    "(highest IoU, or smallest deg + cm); no IoU gating of pose metrics",
+                    "(highest IoU, or smallest deg + cm); "
+                    + ("no IoU gating of pose metrics" if pose_iou_gate is None else
+                       f"pose metrics only over the predictions and GT matched at IoU >= {gate:g} (NOCS reference)"),
+        "pose_iou_gate": None if pose_iou_gate is None else gate,
         "interpolation": "VOC all-point",
     }
 
