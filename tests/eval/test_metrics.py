@@ -379,6 +379,7 @@ def test_summarize_joints():
         (lambda: compute_map([], iou_thresholds=[1.5]), "iou_thresholds"),
         (lambda: compute_map([], pose_iou_gate=0.0), "pose_iou_gate"),
         (lambda: summarize_parts([]), "non-empty"),
+        (lambda: summarize_parts([[None]], pose_thresholds_deg_m=[5]), "pairs"),
     ],
 )
 def test_bad_inputs_raise_input_error(call, match):

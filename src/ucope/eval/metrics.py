@@ -771,6 +771,8 @@ def summarize_parts(
         out[key] = {"mean": [s["mean"] for s in stats], "median": [s["median"] for s in stats]}
     fraction = {}
     for pair in pose_thresholds_deg_m:
+        if np.shape(pair) != (2,):
+            raise InputError(f"pose_thresholds_deg_m must hold (degrees, metres) pairs, got {pair!r}")
         deg, m = _scalar(pair[0], "pose threshold (deg)"), _scalar(pair[1], "pose threshold (m)")
         name = _metric_name_pose(deg, 100.0 * m)
         fraction[name] = [
