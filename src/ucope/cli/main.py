@@ -93,6 +93,28 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_train(args: argparse.Namespace) -> int:
+    from ..model.train import TrainConfig, train
+
+    overrides = {}
+    if args.pairs_per_part is not None:
+        overrides["pairs_per_part"] = args.pairs_per_part
+    tc = TrainConfig(
+        category=args.category, out=args.out, data=args.data, val_data=args.val_data, on_the_fly=args.on_the_fly,
+        steps=args.steps, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, lr_step_epochs=args.lr_step_epochs,
+        lr_gamma=args.lr_gamma, model_size=args.size, model_overrides=overrides, seed=args.seed, data_seed=args.data_seed,
+        epoch_size=args.epoch_size, val_samples=args.val_samples, workers=args.workers, log_every=args.log_every,
+        val_every=args.val_every, checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
+        threads=args.threads, device=args.device, resume=args.resume, progress=not args.quiet,
+    )
+    card = train(tc)
+    if card:
+        val = card.get("final_validation", {})
+        extra = f", validation loss {val['loss']:.4f}" if "loss" in val else ""
+        print(f"trained {card['category']} for {card['steps']} steps ({card['train_time_s']:.0f} s{extra}); model in {args.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..objects.categories import CATEGORY_NAMES
 
@@ -126,6 +148,38 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es), default 0")
     s.add_argument("--out", required=True, help="PNG file to write")
     s.set_defaults(func=cmd_show)
+
+    t = sub.add_parser("train", help="train a model (single process, or DDP under torchrun)",
+                       description="Train a U-COPE model. Multi-GPU / multi-machine: torchrun --nproc_per_node=N -m ucope train ...")
+    t.add_argument("--category", required=True, help=f"one of: {', '.join(CATEGORY_NAMES)}")
+    src = t.add_mutually_exclusive_group(required=True)
+    src.add_argument("--data", help="training data set folder (from `ucope generate --split train`)")
+    src.add_argument("--on-the-fly", action="store_true", help="generate training samples in the data-loader workers instead")
+    t.add_argument("--val-data", default=None, help="held-out data set folder (default: --val-samples views generated from the val split)")
+    t.add_argument("--out", required=True, help="run folder (metrics, checkpoints, model)")
+    n = t.add_mutually_exclusive_group(required=True)
+    n.add_argument("--steps", type=int, help="optimiser steps")
+    n.add_argument("--epochs", type=float, help="passes over the data (on the fly: of --epoch-size samples)")
+    t.add_argument("--batch-size", type=int, default=8, help="items per step and per process (default 8)")
+    t.add_argument("--size", choices=["slim", "full"], default="slim", help="slim: 1024 points, half widths (default); full: 2048 points")
+    t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (default 1e-3)")
+    t.add_argument("--lr-step-epochs", type=float, default=10.0, help="multiply the lr by --lr-gamma every this many epochs (default 10)")
+    t.add_argument("--lr-gamma", type=float, default=0.1)
+    t.add_argument("--pairs-per-part", type=int, default=None, help="point pairs per part per item (default 512)")
+    t.add_argument("--seed", type=int, default=0, help="seed of the weights, sample order and draws")
+    t.add_argument("--data-seed", type=int, default=0, help="seed of generated samples (--on-the-fly, default validation set)")
+    t.add_argument("--epoch-size", type=int, default=4000, help="samples per epoch with --on-the-fly")
+    t.add_argument("--val-samples", type=int, default=200, help="validation samples (default 200)")
+    t.add_argument("--workers", type=int, default=0, help="data-loader worker processes (default 0)")
+    t.add_argument("--log-every", type=int, default=25)
+    t.add_argument("--val-every", type=int, default=500)
+    t.add_argument("--checkpoint-every", type=int, default=500)
+    t.add_argument("--max-minutes", type=float, default=None, help="stop with a checkpoint and a model after this wall time")
+    t.add_argument("--threads", type=int, default=None, help="torch CPU threads")
+    t.add_argument("--device", choices=["auto", "cpu", "cuda"], default="auto")
+    t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.set_defaults(func=cmd_train)
 
     d = sub.add_parser("demo", help="generate a few unseen test views of two categories and draw them")
     d.add_argument("--out", default="demo_out", help="folder for the data and the picture (default demo_out)")

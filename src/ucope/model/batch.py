@@ -68,7 +68,10 @@ class TrainingItems(Dataset):
         self.epoch = 0
 
     def set_epoch(self, epoch: int) -> None:
+        """Draw other points and pairs (and, for a generated stream, other samples) in epoch ``epoch``."""
         self.epoch = int(epoch)
+        if hasattr(self.samples, "set_epoch"):
+            self.samples.set_epoch(self.epoch)
 
     def __len__(self) -> int:
         return len(self.samples)

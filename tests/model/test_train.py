@@ -1,0 +1,121 @@
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from ucope.cli.main import main
+from ucope.errors import InputError
+from ucope.model.checkpoint import load_model
+from ucope.model.train import TrainConfig, TrainingError, parameter_digest, train
+
+from test_network import TINY_ENCODER
+
+TINY = dict(encoder=TINY_ENCODER, num_points=256, pairs_per_part=32, hidden=32)
+
+
+def tiny_train_config(out, **kw) -> TrainConfig:
+    base = dict(category="laptop", out=str(out), on_the_fly=True, epoch_size=6, steps=7, batch_size=2, val_samples=2,
+                model_overrides=dict(TINY), log_every=1, val_every=4, checkpoint_every=2, progress=False, threads=1)
+    base.update(kw)
+    return TrainConfig(**base)
+
+
+def _train_rows(run):
+    rows = [json.loads(x) for x in (run / "metrics.jsonl").read_text().splitlines()]
+    return {r["step"]: r["train/loss"] for r in rows if "train/loss" in r}
+
+
+class _Crash(Exception):
+    pass
+
+
+def test_kill_and_resume_matches_an_uninterrupted_run(tmp_path):
+    card = train(tiny_train_config(tmp_path / "ref"))
+    assert card["steps"] == 7 and card["epochs"] == pytest.approx(7 / 3, abs=1e-3)  # crosses two epoch boundaries
+    ref, _ = load_model(tmp_path / "ref")
+
+    def crash(step):
+        if step == 5:  # after the checkpoint at step 4, before the one at step 6: steps 5 is lost and redone
+            raise _Crash()
+
+    with pytest.raises(_Crash):
+        train(tiny_train_config(tmp_path / "cut"), on_step=crash)
+    assert json.loads((tmp_path / "cut" / "checkpoint.json").read_text())["state"]["step"] == 4
+    with pytest.raises(TrainingError, match="--resume"):
+        train(tiny_train_config(tmp_path / "cut"))
+    train(tiny_train_config(tmp_path / "cut", resume=True))
+    resumed, _ = load_model(tmp_path / "cut")
+    assert parameter_digest(resumed) == parameter_digest(ref)
+    assert _train_rows(tmp_path / "cut") == _train_rows(tmp_path / "ref")  # the same loss curve, step by step
+
+
+def test_run_folder_holds_model_card_metrics_and_a_loadable_model(tmp_path):
+    card = train(tiny_train_config(tmp_path, steps=4))
+    on_disk = json.loads((tmp_path / "model_card.json").read_text())
+    assert on_disk["category"] == "laptop" and on_disk["num_parts"] == 2
+    assert on_disk["joints"] == [{"type": "revolute", "parent": 0, "child": 1}]
+    assert on_disk["conventions_version"] and on_disk["generator_version"]
+    assert on_disk["training_data"]["kind"] == "on-the-fly" and on_disk["steps"] == 4
+    assert set(on_disk["final_validation"]) >= {"loss", "pose", "seg", "joint"}
+    assert card["parameter_digests"] == on_disk["parameter_digests"]
+    rows = [json.loads(x) for x in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in rows if "val/loss" in r] == [4]
+    assert all(r["samples_per_s"] > 0 for r in rows if "train/loss" in r)
+    net, meta = load_model(tmp_path)
+    assert meta["info"]["steps"] == 4 and net.cfg.num_points == 256
+
+
+def test_learning_rate_steps_down_by_epoch(tmp_path):
+    train(tiny_train_config(tmp_path, steps=7, lr=1e-3, lr_step_epochs=1, lr_gamma=0.5))
+    rows = [json.loads(x) for x in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    lrs = {r["step"]: r["lr"] for r in rows if "lr" in r}
+    # 3 steps per epoch; the lr logged at step s was used for step s (0-based step s - 1)
+    assert lrs[1] == lrs[3] == pytest.approx(1e-3)
+    assert lrs[4] == lrs[6] == pytest.approx(5e-4)
+    assert lrs[7] == pytest.approx(2.5e-4)
+
+
+def test_bad_training_arguments_are_named(tmp_path):
+    with pytest.raises(InputError, match="exactly one of steps and epochs"):
+        train(tiny_train_config(tmp_path, epochs=1))
+    with pytest.raises(InputError, match="--data DIR"):
+        train(tiny_train_config(tmp_path, on_the_fly=False))
+    with pytest.raises(InputError, match="unknown category|valid"):
+        train(tiny_train_config(tmp_path, category="toaster"))
+    with pytest.raises(TrainingError, match="no checkpoint"):
+        train(tiny_train_config(tmp_path / "empty", resume=True))
+
+
+def test_cli_train_errors_are_one_line(tmp_path, capsys):
+    assert main(["train", "--category", "laptop", "--data", str(tmp_path / "nope"), "--steps", "1", "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "ucope train: error:" in err and "does not exist" in err and "Traceback" not in err
+
+
+def test_cli_train_on_a_data_set(tmp_path, capsys):
+    assert main(["generate", "--category", "mug", "--num", "8", "--shard-size", "4", "--max-points", "1500", "--out", str(tmp_path / "d"), "--quiet"]) == 0
+    assert main(["train", "--category", "laptop", "--data", str(tmp_path / "d"), "--steps", "1", "--out", str(tmp_path / "r"), "--quiet"]) == 2
+    assert "holds 'mug' samples" in capsys.readouterr().err
+    assert main(["train", "--category", "mug", "--data", str(tmp_path / "d"), "--val-data", str(tmp_path / "d"), "--steps", "2",
+                 "--batch-size", "4", "--val-samples", "4", "--out", str(tmp_path / "r"), "--quiet", "--threads", "1"]) == 0
+    card = json.loads((tmp_path / "r" / "model_card.json").read_text())
+    assert card["steps"] == 2 and card["training_data"]["kind"] == "shards" and card["model_size"] == "slim"
+
+
+def test_torchrun_ddp_two_processes_end_with_identical_parameters(tmp_path):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2", "-m", "ucope", "train",
+           "--category", "mug", "--on-the-fly", "--epoch-size", "8", "--steps", "3", "--batch-size", "2",
+           "--val-samples", "2", "--checkpoint-every", "2", "--out", str(tmp_path / "ddp"), "--quiet", "--device", "cpu"]
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-3000:]
+    card = json.loads((tmp_path / "ddp" / "model_card.json").read_text())
+    assert card["world_size"] == 2
+    digests = card["parameter_digests"]
+    assert len(digests) == 2 and digests[0] == digests[1]
+    net, _ = load_model(tmp_path / "ddp")
+    assert parameter_digest(net) == digests[0]
+    assert card["epochs"] == pytest.approx(1.5)  # 8 samples / (2 per rank x 2 ranks) = 2 steps per epoch
