@@ -1,0 +1,178 @@
+"""The result of a pose estimate, and its stable JSON form.
+
+JSON form (``format: "ucope-result/1"``; every length in metres, angles in radians, camera frame =
+OpenCV: +x right, +y down, +z forward)::
+
+    {
+      "format": "ucope-result/1",
+      "category": "laptop",
+      "parts": [{"index": 0, "label": "base", "symmetry": "none",
+                 "cam_from_part": [[...4 floats...] x 4], "size_m": [x, y, z],
+                 "score": 0.83, "num_votes": 9400}, ...],
+      "joints": [{"type": "revolute", "parent": 0, "child": 1,
+                  "pivot_m": [x, y, z] | null, "axis": [x, y, z],
+                  "state": 1.21, "state_unit": "rad", "score": 0.9}, ...],
+      "part_labels": [0, 0, 1, -1, ...],      # one per input point; -1: dropped (NaN / Inf)
+      "num_points": 12345,                    # input points
+      "timings_ms": {"preprocess": ..., "encoder": ..., "pair_encoder": ..., "voting": ..., "total": ...},
+      "model": "laptop", "ucope_version": "0.1.0", "conventions_version": "1"
+    }
+
+``cam_from_part`` maps part-frame points to the camera frame (the part's amodal box is centred on the
+part frame's origin and aligned with its axes: docs/conventions.md); ``size_m`` are the box extents
+along the part's x, y, z. A part with ``symmetry: "y"`` has a meaningful y axis only. A prismatic
+joint has no pivot (``null``). ``state`` is in the data sets' ``joint_state`` convention.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import CONVENTIONS_VERSION, __version__
+from ..data.shards import atomic_write_json
+from ..errors import DataError
+
+__all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult"]
+
+RESULT_FORMAT = "ucope-result/1"
+
+
+def _floats(a, ndigits: int = 7) -> Any:
+    return np.round(np.asarray(a, dtype=np.float64), ndigits).tolist()
+
+
+@dataclass
+class PartEstimate:
+    """One part's 9D pose: ``cam_from_part`` ``(4, 4)``, ``size_m`` ``(3,)``, a confidence ``score`` in
+    ``[0, 1]`` (the fraction of its votes that agree) and the number of pairs that voted."""
+
+    index: int
+    label: str
+    cam_from_part: np.ndarray
+    size_m: np.ndarray
+    score: float
+    symmetry: str = "none"
+    num_votes: int = 0
+
+    def to_dict(self) -> dict:
+        return {"index": int(self.index), "label": self.label, "symmetry": self.symmetry,
+                "cam_from_part": _floats(self.cam_from_part), "size_m": _floats(self.size_m),
+                "score": round(float(self.score), 5), "num_votes": int(self.num_votes)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "PartEstimate":
+        return cls(index=int(d["index"]), label=str(d["label"]), cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4),
+                   size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
+                   symmetry=str(d.get("symmetry", "none")), num_votes=int(d.get("num_votes", 0)))
+
+
+@dataclass
+class JointEstimate:
+    """One joint: ``type`` (``"revolute"``/``"prismatic"``), the ``parent``/``child`` part indices,
+    ``pivot_m`` ``(3,)`` (a point on the axis; ``None`` for prismatic joints), unit ``axis`` ``(3,)``,
+    ``state`` (radians or metres, see ``state_unit``) and a confidence ``score``."""
+
+    type: str
+    parent: int
+    child: int
+    pivot_m: np.ndarray | None
+    axis: np.ndarray
+    state: float
+    score: float = 0.0
+
+    @property
+    def state_unit(self) -> str:
+        return "rad" if self.type == "revolute" else "m"
+
+    def to_dict(self) -> dict:
+        return {"type": self.type, "parent": int(self.parent), "child": int(self.child),
+                "pivot_m": None if self.pivot_m is None else _floats(self.pivot_m), "axis": _floats(self.axis),
+                "state": round(float(self.state), 7), "state_unit": self.state_unit, "score": round(float(self.score), 5)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "JointEstimate":
+        return cls(type=str(d["type"]), parent=int(d["parent"]), child=int(d["child"]),
+                   pivot_m=None if d.get("pivot_m") is None else np.asarray(d["pivot_m"], np.float64).reshape(3),
+                   axis=np.asarray(d["axis"], np.float64).reshape(3), state=float(d["state"]), score=float(d.get("score", 0.0)))
+
+
+@dataclass
+class PoseResult:
+    """Everything :meth:`ucope.Estimator.predict` estimates for one object (see the module docstring)."""
+
+    category: str
+    parts: list[PartEstimate]
+    joints: list[JointEstimate]
+    part_labels: np.ndarray
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    model: str = ""
+    num_points: int = 0
+
+    @property
+    def cam_from_part(self) -> np.ndarray:
+        """``(K, 4, 4)`` every part's pose."""
+        return np.stack([p.cam_from_part for p in self.parts])
+
+    @property
+    def size_m(self) -> np.ndarray:
+        """``(K, 3)`` every part's box extents."""
+        return np.stack([p.size_m for p in self.parts])
+
+    @property
+    def joint_state(self) -> np.ndarray:
+        return np.array([j.state for j in self.joints], dtype=np.float64)
+
+    def to_dict(self) -> dict:
+        return {
+            "format": RESULT_FORMAT,
+            "category": self.category,
+            "parts": [p.to_dict() for p in self.parts],
+            "joints": [j.to_dict() for j in self.joints],
+            "part_labels": np.asarray(self.part_labels, dtype=np.int64).tolist(),
+            "num_points": int(self.num_points),
+            "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
+            "model": self.model,
+            "ucope_version": __version__,
+            "conventions_version": CONVENTIONS_VERSION,
+        }
+
+    def to_json(self, indent: int | None = 2) -> str:
+        return json.dumps(self.to_dict(), indent=indent)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "PoseResult":
+        if not isinstance(d, dict) or d.get("format") != RESULT_FORMAT:
+            raise DataError(f"not a ucope result (format {d.get('format') if isinstance(d, dict) else None!r}, expected {RESULT_FORMAT!r})")
+        try:
+            return cls(category=str(d["category"]), parts=[PartEstimate.from_dict(p) for p in d["parts"]],
+                       joints=[JointEstimate.from_dict(j) for j in d["joints"]],
+                       part_labels=np.asarray(d["part_labels"], dtype=np.int64), timings_ms=dict(d.get("timings_ms", {})),
+                       model=str(d.get("model", "")), num_points=int(d.get("num_points", 0)))
+        except (KeyError, TypeError, ValueError) as e:
+            raise DataError(f"malformed ucope result: {e}") from None
+
+    @classmethod
+    def from_json(cls, text: str) -> "PoseResult":
+        try:
+            return cls.from_dict(json.loads(text))
+        except json.JSONDecodeError as e:
+            raise DataError(f"not valid JSON ({e})") from None
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the JSON form to ``path`` atomically."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(path, self.to_dict())
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "PoseResult":
+        from ..data.shards import read_json
+
+        return cls.from_dict(read_json(path))
