@@ -1,0 +1,40 @@
+"""Voting layer: 9D part poses and joints from the network's per-pair and per-point outputs.
+
+Pure tensor geometry (no network code, no Python loops over pairs or points); float32 torch on the
+device of the inputs. See docs/voting.md for the algorithms, defaults and measured accuracy.
+
+* :func:`decode_bins`: binned logits -> values (expectation around the argmax).
+* :func:`vote_centre`: centre from the pairs' ``(mu, nu)`` circles (grid vote + Gauss-Newton).
+* :func:`vote_axis`, :func:`choose_axis_sign`: an axis from the pairs' directed cones.
+* :func:`rotation_from_axes`, :func:`refine_rotation`: rotation from voted axes.
+* :func:`vote_part`, :func:`vote_parts`: one part / every part of an object.
+* :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
+"""
+
+from __future__ import annotations
+
+from .axis import choose_axis_sign, fibonacci_sphere, vote_axis
+from .bins import decode_bins
+from .centre import circle_distance, vote_centre
+from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
+from .part import PartVote, VotingOptions, vote_part, vote_parts
+from .joints import JointVote, joint_from_points, vote_joints
+
+__all__ = [
+    "decode_bins",
+    "vote_centre",
+    "circle_distance",
+    "fibonacci_sphere",
+    "vote_axis",
+    "choose_axis_sign",
+    "rotation_from_axes",
+    "perpendicular_axis",
+    "refine_rotation",
+    "VotingOptions",
+    "PartVote",
+    "vote_part",
+    "vote_parts",
+    "JointVote",
+    "joint_from_points",
+    "vote_joints",
+]

@@ -1,0 +1,319 @@
+"""Per-part 9D pose by voting (paper section 4.4, with the part awareness of section 4.5).
+
+For part ``k`` (:func:`vote_part`):
+
+1. **Part awareness**: the pairs whose predicted part score ``sigmoid(part_score) > 0.5`` vote (pairs
+   across two parts carry wrong parameters). If fewer than ``min_pairs`` pass, every pair of the part
+   votes instead (``fallback``), which also lowers the score (below). ``awareness=False`` (ablation):
+   every pair votes with weight 1.
+2. Decode ``mu, nu`` (on ``[-V_k, V_k]`` / ``[0, V_k]``) and ``alpha, beta`` (on ``[0, pi]``) with
+   :func:`ucope.voting.bins.decode_bins` (expectation within +-1 bin of the argmax).
+3. Centre: :func:`ucope.voting.centre.vote_centre`; its inliers (circle within 2 cells of the centre,
+   the paper's pool ``P``) vote everything else.
+4. Up axis: :func:`ucope.voting.axis.vote_axis` on ``alpha``, sign by
+   :func:`ucope.voting.axis.choose_axis_sign` (up sign bit). Right axis likewise on ``beta`` (right sign
+   bit), unless the part is symmetric about ``y``.
+5. Rotation: :func:`ucope.voting.rotation.rotation_from_axes` then a joint robust refinement on both
+   sets of cones (:func:`ucope.voting.rotation.refine_rotation`).
+6. Size: ``exp(mean gamma over the centre inliers) * mean_size_m`` (equation (8)).
+7. Score: ``inlier fraction x mean part-score probability`` of the voting pairs, in ``[0, 1]``: high
+   when the pairs agree on a centre and the network is sure they belong to the part; a fallback part
+   has a mean probability below the threshold, so it ranks below confident parts.
+
+:func:`vote_parts` does this for every part of one object from the network's output dict.
+
+Frames and units: points, centres, poses in the camera frame, metres; poses returned as numpy float64
+``cam_from_part`` ``(4, 4)`` (convention of docs/conventions.md). The voting runs in float32 torch on
+the device of the inputs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+import torch
+
+from ..errors import InputError
+from ..model.config import ModelConfig
+from ._checks import strided, tensor
+from .axis import _choose_sign, _vote_axis
+from .bins import decode_bins
+from .centre import DEFAULT_CELL_FRACTION, _vote_centre
+from .rotation import _refine_rotation, rotation_from_axes
+
+__all__ = ["VotingOptions", "PartVote", "vote_part", "vote_parts"]
+
+
+@dataclass(frozen=True)
+class VotingOptions:
+    """Voting hyper-parameters (defaults measured in tests/voting and benchmarks/bench_voting.py).
+
+    Attributes:
+        score_threshold: part-score probability above which a pair votes (paper: 0.5).
+        min_pairs: fewest passing pairs before falling back to every pair of the part.
+        window: decoding window, bins either side of the argmax.
+        cell_fraction: grid cell as a fraction of the vote range ``V_k``.
+        num_angles: candidates per circle (centre); axis_num_angles: per cone (axes).
+        centre_inlier_cells: a pair is a centre inlier if its circle is within this many cells.
+        max_grid_pairs: most pairs casting centre grid votes; max_refine_pairs: most pairs in the
+            centre refinement; max_axis_pairs: most centre inliers voting the axes (decoded, refined
+            and used for the sign and the rotation refinement); max_coarse_pairs: most of those in
+            the coarse axis vote. All are evenly strided subsets; the centre inlier test, the size and
+            the score use every voting pair.
+        axis_grid: cells per cube-map face side of the coarse axis vote (32: about 2.8 degrees).
+        axis_tol_deg: axis inlier tolerance and initial refinement scale (degrees).
+        use_sign_bits: use the predicted sign bits to choose the axis signs.
+        refine_rotation: jointly refine the rotation on both axes' cones.
+    """
+
+    score_threshold: float = 0.5
+    min_pairs: int = 8
+    window: int = 1
+    cell_fraction: float = DEFAULT_CELL_FRACTION
+    num_angles: int = 36
+    centre_inlier_cells: float = 2.0
+    max_grid_pairs: int = 4096
+    max_refine_pairs: int = 4096
+    max_axis_pairs: int = 4096
+    axis_grid: int = 32
+    axis_tol_deg: float = 5.0
+    max_coarse_pairs: int = 1024
+    axis_num_angles: int = 24
+    use_sign_bits: bool = True
+    refine_rotation: bool = True
+
+
+@dataclass
+class PartVote:
+    """The voted pose of one part.
+
+    Attributes:
+        cam_from_part: ``(4, 4)`` float64 pose (box centre = translation), camera frame, metres.
+        size_m: ``(3,)`` float64 box extents along the part's x, y, z.
+        score: confidence in ``[0, 1]`` (inlier fraction x mean part-score probability).
+        num_pairs: pairs that voted; num_inliers: centre inliers among them.
+        fallback: too few pairs passed the part score and every pair voted.
+        timings_ms: CPU wall time per stage (``decode``, ``centre``, ``axes``, ``rotation``, ``size``).
+    """
+
+    cam_from_part: np.ndarray
+    size_m: np.ndarray
+    score: float
+    num_pairs: int
+    num_inliers: int
+    fallback: bool = False
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+def vote_part(
+    a,
+    b,
+    normals_a,
+    mu_logits,
+    nu_logits,
+    alpha_logits,
+    beta_logits,
+    sign_logits,
+    gamma,
+    part_score,
+    *,
+    vote_range_m: float,
+    mean_size_m,
+    symmetric: bool = False,
+    awareness: bool = True,
+    options: VotingOptions | None = None,
+) -> PartVote:
+    """Vote the 9D pose of one part from its ``M`` pairs (see the module docstring).
+
+    Args:
+        a, b: ``(M, 3)`` pair points (camera frame, metres); normals_a: ``(M, 3)`` normals at ``a``.
+        mu_logits, nu_logits: ``(M, mu_bins)`` / ``(M, nu_bins)``; alpha_logits, beta_logits:
+            ``(M, angle_bins)``; sign_logits: ``(M, 2)`` (up, right); gamma: ``(M, 3)``; part_score:
+            ``(M,)`` logits: this part's heads of :meth:`ucope.model.network.UCOPENet.pair_heads`.
+        vote_range_m: ``V_k`` (metres); mean_size_m: ``(3,)`` the category mean size of the part.
+        symmetric: the part is symmetric about ``y`` (only the up axis is voted).
+        awareness: filter pairs by part score (``False``: the ablation without awareness).
+        options: :class:`VotingOptions`.
+
+    Returns:
+        :class:`PartVote`.
+    """
+    opt = options or VotingOptions()
+    t0 = time.perf_counter()
+    a = tensor(a, "a", (None, 3))
+    M = a.shape[0]
+    if M == 0:
+        raise InputError("vote_part needs at least one pair")
+    dev = a.device
+    b = tensor(b, "b", (M, 3), device=dev)
+    n_a = tensor(normals_a, "normals_a", (M, 3), device=dev)
+    mu_l = tensor(mu_logits, "mu_logits", (M, None), device=dev)
+    nu_l = tensor(nu_logits, "nu_logits", (M, None), device=dev)
+    al_l = tensor(alpha_logits, "alpha_logits", (M, None), device=dev)
+    be_l = tensor(beta_logits, "beta_logits", (M, None), device=dev)
+    sg_l = tensor(sign_logits, "sign_logits", (M, 2), device=dev)
+    gam = tensor(gamma, "gamma", (M, 3), device=dev)
+    ps = tensor(part_score, "part_score", (M,), device=dev)
+    V = float(vote_range_m)
+    if not (math.isfinite(V) and V > 0):
+        raise InputError(f"vote_range_m must be a positive number, got {vote_range_m}")
+    mean_size = np.asarray(mean_size_m, dtype=np.float64).reshape(-1)
+    if mean_size.shape != (3,) or not np.all(np.isfinite(mean_size)) or np.any(mean_size <= 0):
+        raise InputError(f"mean_size_m must be 3 positive numbers, got {mean_size_m}")
+
+    # 1. Part awareness.
+    prob = torch.sigmoid(ps)
+    fallback = False
+    sel = torch.arange(M, device=dev)
+    if awareness:
+        passing = torch.nonzero(prob > float(opt.score_threshold)).squeeze(-1)
+        if len(passing) >= int(opt.min_pairs):
+            sel = passing
+        else:
+            fallback = True
+    S = len(sel)
+    # 2. Decoding of mu, nu (every voting pair: they all take part in the inlier test).
+    mu = decode_bins(mu_l[sel], -V, V, opt.window)
+    nu = decode_bins(nu_l[sel], 0.0, V, opt.window)
+    t1 = time.perf_counter()
+    # 3. Centre.
+    at = a[sel].T.contiguous()
+    bt = b[sel].T.contiguous()
+    centre, inl, et = _vote_centre(
+        at, bt, mu, nu, torch.ones(S, device=dev), V * float(opt.cell_fraction), int(opt.num_angles),
+        float(opt.centre_inlier_cells), 0.1, 8, 96, int(opt.max_grid_pairs), int(opt.max_refine_pairs),
+    )
+    n_inl = int(inl.sum())
+    pool = torch.nonzero(inl).squeeze(-1) if n_inl > 0 else torch.arange(S, device=dev)
+    t2 = time.perf_counter()
+    # 4. Axes, voted by (an evenly strided subset of at most max_axis_pairs of) the centre inliers.
+    ax = strided(pool, opt.max_axis_pairs)
+    gi = sel[ax]  # indices into the part's M pairs
+    e_ax = et[:, ax].contiguous()
+    n_ax = n_a[gi].T.contiguous()
+    ones = torch.ones(len(ax), device=dev)
+    every = torch.ones(len(ax), dtype=torch.bool, device=dev)
+    axis_args = ("cubemap", int(opt.axis_num_angles), int(opt.axis_grid), 0, float(opt.axis_tol_deg), 0.2, 6, int(opt.max_coarse_pairs), len(ax))
+    alpha = decode_bins(al_l[gi], 0.0, math.pi, opt.window)
+    up, _ = _vote_axis(e_ax, alpha, ones, *axis_args)
+    up, _ = _choose_sign(up, e_ax, alpha, n_ax, sg_l[gi, 0], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
+    right = beta = None
+    if not symmetric:
+        beta = decode_bins(be_l[gi], 0.0, math.pi, opt.window)
+        right, _ = _vote_axis(e_ax, beta, ones, *axis_args)
+        right, _ = _choose_sign(right, e_ax, beta, n_ax, sg_l[gi, 1], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
+    t3 = time.perf_counter()
+    # 5. Rotation.
+    R = rotation_from_axes(up, right)
+    if opt.refine_rotation:
+        terms = [(1, e_ax, alpha, ones)] + ([] if symmetric else [(0, e_ax, beta, ones)])
+        R = _refine_rotation(R, terms, 4, float(opt.axis_tol_deg), 0.2)
+    t4 = time.perf_counter()
+    # 6. Size and score.
+    g = gam[sel[pool]].mean(0)
+    size = np.exp(g.double().cpu().numpy()) * mean_size
+    score = (n_inl / S) * float(prob[sel].mean())
+    T = np.eye(4)
+    T[:3, :3] = R.double().cpu().numpy()
+    T[:3, 3] = centre.double().cpu().numpy()
+    t5 = time.perf_counter()
+    ms = lambda x, y: 1000.0 * (y - x)  # noqa: E731
+    return PartVote(
+        cam_from_part=T, size_m=size, score=float(score), num_pairs=S, num_inliers=n_inl, fallback=fallback,
+        timings_ms=dict(decode=ms(t0, t1), centre=ms(t1, t2), axes=ms(t2, t3), rotation=ms(t3, t4), size=ms(t4, t5)),
+    )
+
+
+def _one(x: torch.Tensor, name: str) -> torch.Tensor:
+    """Drop a leading batch dimension of size 1."""
+    if x.ndim >= 1 and x.shape[0] == 1:
+        return x[0]
+    raise InputError(f"{name}: expected batch size 1, got shape {tuple(x.shape)}")
+
+
+def vote_parts(
+    points,
+    normals,
+    pair_idx,
+    outputs: Mapping[str, Any],
+    cfg: ModelConfig,
+    awareness: bool = True,
+    options: VotingOptions | None = None,
+) -> dict[str, Any]:
+    """Vote every part of one object from the network's outputs (batch size 1).
+
+    Args:
+        points: ``(N, 3)`` or ``(1, N, 3)`` the network's input cloud (camera frame, metres).
+        normals: ``(N, 3)`` or ``(1, N, 3)`` its normals.
+        pair_idx: ``(K, M, 2)`` or ``(1, K, M, 2)`` the pair indices given to the network (first
+            column = ``a``).
+        outputs: the dict of :meth:`ucope.model.network.UCOPENet.forward` (``mu_logits``...,
+            ``(1, K, M, ...)`` tensors).
+        cfg: the model's :class:`ucope.model.config.ModelConfig` (bins, vote ranges, mean sizes,
+            symmetry).
+        awareness: part awareness on (paper) or off (ablation).
+
+    Returns:
+        dict of numpy arrays: ``cam_from_part`` ``(K, 4, 4)``, ``size_m`` ``(K, 3)``, ``score``
+        ``(K,)``, ``num_pairs`` / ``num_inliers`` ``(K,)`` int, ``fallback`` ``(K,)`` bool, and
+        ``timings_ms`` (a list of per-part stage timings).
+    """
+    K = cfg.num_parts
+    pts = as_points(points, "points")
+    nrm = as_points(normals, "normals", device=pts.device)
+    if nrm.shape != pts.shape:
+        raise InputError(f"normals must match points {tuple(pts.shape)}, got {tuple(nrm.shape)}")
+    idx = tensor(pair_idx, "pair_idx", (None,) * (4 if np.ndim(pair_idx) == 4 else 3), dtype=torch.long, device=pts.device)
+    if idx.ndim == 4:
+        idx = _one(idx, "pair_idx")
+    if idx.ndim != 3 or idx.shape[0] != K or idx.shape[2] != 2:
+        raise InputError(f"pair_idx must be (K={K}, M, 2), got {tuple(idx.shape)}")
+    N = pts.shape[0]
+    if bool((idx < 0).any()) or bool((idx >= N).any()):
+        raise InputError(f"pair_idx holds indices outside [0, {N})")
+    heads = {}
+    for name in ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score"):
+        if name not in outputs:
+            raise InputError(f"outputs lack {name!r} (run the network with pair_idx)")
+        x = tensor(outputs[name], name, (None,) * np.ndim(outputs[name]), device=pts.device)
+        want = 3 if name == "part_score" else 4
+        if x.ndim == want:
+            x = _one(x, name)
+        if x.ndim != want - 1 or x.shape[:2] != (K, idx.shape[1]):
+            raise InputError(f"outputs[{name!r}] must start with (1, K={K}, M={idx.shape[1]}), got {tuple(outputs[name].shape)}")
+        heads[name] = x
+    out = dict(
+        cam_from_part=np.zeros((K, 4, 4)), size_m=np.zeros((K, 3)), score=np.zeros(K),
+        num_pairs=np.zeros(K, dtype=np.int64), num_inliers=np.zeros(K, dtype=np.int64),
+        fallback=np.zeros(K, dtype=bool), timings_ms=[],
+    )
+    for k in range(K):  # a handful of parts; everything inside is vectorised over pairs
+        ia, ib = idx[k, :, 0], idx[k, :, 1]
+        r = vote_part(
+            pts[ia], pts[ib], nrm[ia],
+            *(heads[n][k] for n in ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score")),
+            vote_range_m=cfg.stats.vote_range_m[k], mean_size_m=cfg.stats.mean_size_m[k],
+            symmetric=cfg.part_symmetry[k] == "y", awareness=awareness, options=options,
+        )
+        out["cam_from_part"][k] = r.cam_from_part
+        out["size_m"][k] = r.size_m
+        out["score"][k] = r.score
+        out["num_pairs"][k] = r.num_pairs
+        out["num_inliers"][k] = r.num_inliers
+        out["fallback"][k] = r.fallback
+        out["timings_ms"].append(r.timings_ms)
+    return out
+
+
+def as_points(x, name: str, device=None) -> torch.Tensor:
+    """``(N, 3)`` float32 points from ``(N, 3)`` or ``(1, N, 3)``."""
+    t = tensor(x, name, (None,) * np.ndim(x), device=device)
+    if t.ndim == 3:
+        t = _one(t, name)
+    if t.ndim != 2 or t.shape[1] != 3 or t.shape[0] == 0:
+        raise InputError(f"{name} must be (N, 3) or (1, N, 3) with N > 0, got {tuple(t.shape)}")
+    return t

@@ -1,0 +1,157 @@
+"""Rotations from voted axes: orthonormalisation and a joint least-squares refinement.
+
+Convention (docs/conventions.md): ``cam_from_part`` rotation ``R = [x | y | z]`` (columns: right, up,
+front), right-handed, ``z = x x y``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from ..errors import InputError
+from ._checks import tensor
+
+__all__ = ["rotation_from_axes", "perpendicular_axis", "refine_rotation", "so3_exp"]
+
+
+def perpendicular_axis(up: torch.Tensor) -> torch.Tensor:
+    """A deterministic unit ``x`` perpendicular to unit ``up`` ``(3,)`` (for parts symmetric about y).
+
+    ``x`` is the camera axis least aligned with ``up`` (the first on ties) with its component along
+    ``up`` removed, so it is a continuous function of ``up`` except where that choice switches.
+    """
+    ref = torch.zeros_like(up)
+    ref[int(up.abs().argmin())] = 1.0
+    x = ref - (ref @ up) * up
+    return x / x.norm()
+
+
+def rotation_from_axes(up, right=None) -> torch.Tensor:
+    """``(3, 3)`` rotation ``[x | y | z]`` from a voted up axis ``y`` and right axis ``x``.
+
+    Method: the SVD-based closest rotation (Frobenius norm) to ``[x, y, x x y]`` with ``x, y``
+    normalised: with independent ``x`` and ``y`` votes this splits their non-orthogonality evenly
+    between the two instead of trusting one (Gram-Schmidt would keep ``y`` exact). The determinant is
+    forced to +1. ``right=None`` (a part symmetric about ``y``): ``y`` is kept exactly and ``x`` is
+    :func:`perpendicular_axis`.
+
+    Args:
+        up: ``(3,)`` up axis (any non-zero length); right: ``(3,)`` right axis or ``None``.
+
+    Returns:
+        float tensor ``(3, 3)`` on the device of ``up``.
+    """
+    y = tensor(up, "up", (3,))
+    ny = y.norm()
+    if float(ny) < 1e-12:
+        raise InputError("up must be a non-zero vector")
+    y = y / ny
+    if right is None:
+        x = perpendicular_axis(y)
+        return torch.stack([x, y, torch.linalg.cross(x, y)], dim=1)
+    x = tensor(right, "right", (3,), device=y.device)
+    nx = x.norm()
+    if float(nx) < 1e-12:
+        raise InputError("right must be a non-zero vector")
+    x = x / nx
+    if float(torch.linalg.cross(x, y).norm()) < 1e-6:
+        raise InputError("up and right are parallel: no rotation")
+    A = torch.stack([x, y, torch.linalg.cross(x, y)], dim=1).double()
+    U, _, Vh = torch.linalg.svd(A)
+    d = torch.sign(torch.linalg.det(U @ Vh))
+    R = U @ torch.diag(torch.stack([torch.ones_like(d), torch.ones_like(d), d])) @ Vh
+    return R.to(y.dtype)
+
+
+def so3_exp(w: torch.Tensor) -> torch.Tensor:
+    """``(3, 3)`` rotation ``exp([w]_x)`` (Rodrigues) of a rotation vector ``w`` ``(3,)``."""
+    th = w.norm()
+    K = torch.zeros(3, 3, dtype=w.dtype, device=w.device)
+    K[0, 1], K[0, 2], K[1, 2] = -w[2], w[1], -w[0]
+    K = K - K.T
+    eye = torch.eye(3, dtype=w.dtype, device=w.device)
+    if float(th) < 1e-8:
+        return eye + K
+    return eye + torch.sin(th) / th * K + (1.0 - torch.cos(th)) / th**2 * (K @ K)
+
+
+def refine_rotation(
+    R,
+    e_up,
+    alpha,
+    w_up,
+    e_right=None,
+    beta=None,
+    w_right=None,
+    *,
+    iters: int = 4,
+    tol_deg: float = 5.0,
+    min_tol_deg: float = 0.2,
+) -> torch.Tensor:
+    """Joint robust Gauss-Newton refinement of a rotation on the pair constraints of both axes.
+
+    Minimises ``sum_i w_i rho(e_i . R y - cos alpha_i) + sum_j w_j rho(e_j . R x - cos beta_j)`` over
+    rotations ``exp([d]_x) R`` (3x3 solves): the best rotation for both sets of cones at once, so
+    neither axis is favoured by the orthonormalisation. ``rho`` is iteratively reweighted least squares
+    with Tukey weights on the angle residual ``|acos(e . axis) - angle|``, whose scale starts at
+    ``tol_deg`` and shrinks to ``3 x`` the median inlier residual (at least ``min_tol_deg``), as in
+    :func:`ucope.voting.axis.vote_axis`. With only the up terms (symmetric parts) the rotation about
+    ``y`` is left unchanged (damped null direction).
+
+    Args:
+        R: ``(3, 3)`` initial rotation (columns x, y, z), e.g. :func:`rotation_from_axes`.
+        e_up: ``(M, 3)`` unit pair directions, alpha: ``(M,)`` radians, w_up: ``(M,)`` pair weights.
+        e_right, beta, w_right: the same for the right axis (optional).
+
+    Returns:
+        ``(3, 3)`` rotation (float32, on the device of ``R``).
+    """
+    R = tensor(R, "R", (3, 3))
+    dev = R.device
+    terms = [(1, tensor(e_up, "e_up", (None, 3), device=dev), alpha, w_up)]
+    if e_right is not None:
+        terms.append((0, tensor(e_right, "e_right", (None, 3), device=dev), beta, w_right))
+    prepared = []
+    for col, e, ang, w in terms:
+        M = e.shape[0]
+        ang = tensor(ang, "angle", (M,), device=dev)
+        w = tensor(w, "weights", (M,), device=dev)
+        prepared.append((col, e.T.contiguous(), ang, w))
+    return _refine_rotation(R, prepared, int(iters), float(tol_deg), float(min_tol_deg))
+
+
+def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -> torch.Tensor:
+    """:func:`refine_rotation` on ``terms = [(column, e (3, M) coordinate-major, angle (M,), w (M,))]``."""
+    dev = R.device
+    prepared = [[col, et, ang, torch.cos(ang), w, math.radians(tol_deg)] for col, et, ang, w in terms]
+    tol_min = math.radians(min_tol_deg)
+    eye = torch.eye(3, dtype=R.dtype, device=dev)
+    for _ in range(iters):
+        H = torch.zeros(3, 3, dtype=R.dtype, device=dev)
+        g = torch.zeros(3, dtype=R.dtype, device=dev)
+        for term in prepared:
+            col, et, ang, c, w, tol = term
+            a = R[:, col]
+            x = (a.view(3, 1) * et).sum(0)
+            r_ang = (torch.arccos(x.clamp(-1.0, 1.0)) - ang).abs()
+            inl = (r_ang < tol) & (w > 0)
+            if not bool(inl.any()):
+                continue
+            t = (r_ang / tol).clamp(max=1.0)
+            wi = torch.where(inl, w * (1.0 - t * t).square(), 0.0)
+            # d/dd of e . (a + d x a) = (a x e) . d
+            J = torch.stack([a[1] * et[2] - a[2] * et[1], a[2] * et[0] - a[0] * et[2], a[0] * et[1] - a[1] * et[0]])
+            H += (J * wi) @ J.T
+            g += (J * wi) @ (x - c)
+            term[5] = min(tol, max(tol_min, 3.0 * float(r_ang[inl].median())))
+        tr = float(H.diagonal().sum())
+        if tr <= 0:
+            break
+        d = torch.linalg.solve(H + (1e-6 * tr) * eye, -g)
+        R = so3_exp(d) @ R
+        if float(d.norm()) < 1e-3 * tol_min and all(t[5] <= tol_min for t in prepared):  # converged
+            break
+    U, _, Vh = torch.linalg.svd(R.double())  # re-orthonormalise (float32 drift)
+    return (U @ Vh).to(R.dtype)
