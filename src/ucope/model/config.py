@@ -36,12 +36,17 @@ class CategoryStats:
         norm_scale_m: the object scale the encoder's input is divided by (mean cloud radius about the
             cloud centroid).
         num_samples: how many samples the statistics were measured on.
+        joint_zero_offset_m: ``(J,)`` per joint, prismatic: the mean gap between the child's and the
+            parent's box supports along the joint axis minus the joint state, at the ground-truth poses
+            (:func:`ucope.geometry.kinematics.prismatic_zero_offset`), the constant that turns a support
+            gap into a state; 0.0 for revolute joints. ``()`` when not measured (older statistics).
     """
 
     vote_range_m: tuple[float, ...]
     mean_size_m: tuple[tuple[float, float, float], ...]
     norm_scale_m: float
     num_samples: int = 0
+    joint_zero_offset_m: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         K = len(self.vote_range_m)
@@ -50,6 +55,8 @@ class CategoryStats:
         vals = np.array([*self.vote_range_m, *np.ravel(self.mean_size_m), self.norm_scale_m], dtype=np.float64)
         if not np.all(np.isfinite(vals)) or np.any(vals <= 0):
             raise InputError("CategoryStats: every range, size and scale must be a positive finite number")
+        if not np.all(np.isfinite(np.asarray(self.joint_zero_offset_m, dtype=np.float64))):
+            raise InputError("CategoryStats: joint_zero_offset_m must be finite")
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -57,6 +64,7 @@ class CategoryStats:
             "mean_size_m": [[float(x) for x in s] for s in self.mean_size_m],
             "norm_scale_m": float(self.norm_scale_m),
             "num_samples": int(self.num_samples),
+            "joint_zero_offset_m": [float(v) for v in self.joint_zero_offset_m],
         }
 
     @classmethod
@@ -67,37 +75,65 @@ class CategoryStats:
                 mean_size_m=tuple(tuple(float(x) for x in s) for s in d["mean_size_m"]),
                 norm_scale_m=float(d["norm_scale_m"]),
                 num_samples=int(d.get("num_samples", 0)),
+                joint_zero_offset_m=tuple(float(v) for v in d.get("joint_zero_offset_m", ())),
             )
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"malformed category statistics: {e}") from None
 
 
-def compute_category_stats(samples: Sequence[dict], max_samples: int = 2000) -> CategoryStats:
+def compute_category_stats(samples: Sequence[dict], max_samples: int = 2000, joints: Sequence[tuple[int, int]] | None = None) -> CategoryStats:
     """Measure :class:`CategoryStats` on (up to ``max_samples`` evenly spaced) training samples.
 
     Args:
         samples: an indexable sequence of sample dicts (e.g. :func:`ucope.data.load_dataset`).
+        joints: ``(parent, child)`` part indices of each joint; by default those of the category of the
+            first sample (``sample["category"]``). Needed for ``joint_zero_offset_m``.
     """
+    from ..geometry.kinematics import prismatic_zero_offset
+
     n = len(samples)
     if n == 0:
         raise InputError("cannot compute category statistics on an empty data set")
     idx = np.unique(np.linspace(0, n - 1, min(n, int(max_samples))).round().astype(int))
-    sizes, radii = [], []
+    sizes, radii, poses, axes, types, states = [], [], [], [], [], []
     for i in idx:
         s = samples[int(i)]
         sizes.append(np.asarray(s["size_m"], np.float64))
         pts = np.asarray(s["points"], np.float64)
         radii.append(np.linalg.norm(pts - pts.mean(0), axis=1).max())
+        if "joint_type" in s and len(s["joint_type"]) > 0:
+            poses.append(np.asarray(s["cam_from_part"], np.float64))
+            axes.append(np.asarray(s["joint_axis"], np.float64))
+            types.append(np.asarray(s["joint_type"], np.int64))
+            states.append(np.asarray(s["joint_state"], np.float64))
     size = np.stack(sizes)  # (S, K, 3)
     if np.any(size <= 0):
         raise InputError("training samples hold a non-positive part size")
     vote = 1.1 * 0.5 * np.linalg.norm(size, axis=-1).max(0)
     mean = np.exp(np.log(size).mean(0))
+    zero: tuple[float, ...] = ()
+    if types:
+        T, U, Q, JT = np.stack(poses), np.stack(axes), np.stack(states), np.stack(types)  # (S, K, 4, 4) ...
+        if joints is None:
+            from ..objects.categories import make_instance
+
+            obj = make_instance(str(samples[int(idx[0])]["category"]), "train", 0)
+            joints = [(int(j.parent), int(j.child)) for j in obj.joints]
+        if len(joints) != JT.shape[1]:
+            raise InputError(f"{len(joints)} (parent, child) pairs given for {JT.shape[1]} joints")
+        offs = []
+        for j, (p, c) in enumerate(joints):  # a handful of joints; vectorised over samples
+            if np.all(JT[:, j] == 1):
+                offs.append(prismatic_zero_offset(T[:, p], T[:, c], U[:, j], size[:, p], size[:, c], Q[:, j]))
+            else:
+                offs.append(0.0)
+        zero = tuple(float(v) for v in offs)
     return CategoryStats(
         vote_range_m=tuple(float(v) for v in vote),
         mean_size_m=tuple(tuple(float(x) for x in m) for m in mean),
         norm_scale_m=float(np.mean(radii)),
         num_samples=len(idx),
+        joint_zero_offset_m=zero,
     )
 
 
@@ -120,6 +156,9 @@ class ModelConfig:
         mu_bins, nu_bins, angle_bins: bin counts (centre on ``[-V, V]`` / ``[0, V]``; angles on ``[0, pi]``).
         heat_radius: joint heatmap radius as a fraction of ``stats.norm_scale_m``: ``H = max(0, 1 - d/r)``
             with ``d`` the distance of a point to the joint axis line.
+        joint_axes_in_parent: ``(J, 3)`` each joint's canonical unit axis in its parent's part frame
+            (the category's, from :func:`ucope.objects.categories.make_instance`); used by the
+            kinematic refinement. ``()`` for configurations saved before it existed.
         lambda_joint, lambda_seg, lambda_pose: the loss weights of equation (7).
     """
 
@@ -141,6 +180,7 @@ class ModelConfig:
     lambda_joint: float = 0.2
     lambda_seg: float = 0.2
     lambda_pose: float = 0.6
+    joint_axes_in_parent: tuple = ()
     version: int = MODEL_CONFIG_VERSION
 
     def __post_init__(self) -> None:
@@ -160,6 +200,10 @@ class ModelConfig:
             raise InputError("the encoder takes the normals as point features: in_channels must be 3")
         if self.num_points < self.encoder.npoints[0]:
             raise InputError(f"num_points ({self.num_points}) < the encoder's first level ({self.encoder.npoints[0]})")
+        if self.joint_axes_in_parent:
+            ax = np.asarray(self.joint_axes_in_parent, dtype=np.float64)
+            if ax.shape != (J, 3) or not np.all(np.isfinite(ax)) or np.any(np.linalg.norm(ax, axis=-1) < 1e-9):
+                raise InputError(f"joint_axes_in_parent must hold {J} non-zero finite 3-vectors, got {self.joint_axes_in_parent}")
         for name in ("pairs_per_part", "hidden", "mu_bins", "nu_bins", "angle_bins"):
             if int(getattr(self, name)) < 1:
                 raise InputError(f"{name} must be positive")
@@ -194,6 +238,7 @@ class ModelConfig:
             joint_types=tuple(JOINT_TYPES.index(j.type) for j in obj.joints),
             joint_parents=tuple(int(j.parent) for j in obj.joints),
             joint_children=tuple(int(j.child) for j in obj.joints),
+            joint_axes_in_parent=tuple(tuple(float(x) for x in j.axis) for j in obj.joints),
             stats=stats,
             encoder=enc,
             num_points=npts,
