@@ -9,6 +9,7 @@ device of the inputs. See docs/voting.md for the algorithms, defaults and measur
 * :func:`rotation_from_axes`, :func:`refine_rotation`: rotation from voted axes.
 * :func:`vote_part`, :func:`vote_parts`: one part / every part of an object.
 * :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
+* :func:`vote_object`: parts + joints + joint states, optionally :func:`kinematic_refine`.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from .centre import circle_distance, vote_centre
 from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
 from .part import PartVote, VotingOptions, vote_part, vote_parts
 from .joints import JointVote, joint_from_points, vote_joints
+from .kinematic import kinematic_refine
+from .object import vote_object
 
 __all__ = [
     "decode_bins",
@@ -37,4 +40,6 @@ __all__ = [
     "JointVote",
     "joint_from_points",
     "vote_joints",
+    "kinematic_refine",
+    "vote_object",
 ]

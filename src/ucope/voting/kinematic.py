@@ -1,0 +1,165 @@
+"""Opt-in kinematic refinement: make part rotations, joint axes and joint states consistent.
+
+Voting estimates every part and joint independently, so a voted child rotation is in general not its
+parent's rotation turned about the joint axis, and the voted joint axis is not the parent's canonical
+axis. The articulation model (docs/conventions.md) says, for joint ``j`` with parent ``p``, child ``c``
+and canonical axis ``a_j`` in the parent frame (``ModelConfig.joint_axes_in_parent``; the rotation of
+``parent_from_child_zero`` is the identity):
+
+    R_c = R_p Rot(a_j, q_j)   (revolute)        R_c = R_p   (prismatic)
+    axis_cam_j = R_p a_j
+
+:func:`kinematic_refine` finds the root rotation ``R_0`` and revolute states ``q`` minimising
+
+    sum_k w_k ||R_k(R_0, q) - R^_k||_F^2  +  w_axis sum_j ||R_p(j) a_j - u^_j||^2
+
+(``R^_k`` the voted rotations, ``u^_j`` the voted joint axes, sign-aligned with ``R^_p a_j``; every
+``R_k`` follows from ``R_0`` and ``q`` down the tree) by block coordinate descent, each block in
+closed form: given ``q``, ``R_0`` is the orthogonal Procrustes solution (SVD) of
+``sum_k w_k R^_k G_k^T + w_axis sum_j u^_j (G_p(j) a_j)^T`` (``G_k`` the chain of joint rotations from the
+root to part ``k``); given the rotations, each ``q_j`` is the angle of the rotation about ``a_j`` closest
+to ``sum_{k in subtree(c)} w_k R_p^T R^_k H_k^T`` (``H_k`` the chain below ``c``). So the revolute axis
+becomes a weighted compromise between the voted parent rotation, the voted child rotation(s) and the
+voted joint axis. Translations and sizes are left as voted; pivots are kept as voted (the axis line
+keeps its voted point); prismatic states are recomputed from the refined poses
+(:func:`ucope.geometry.kinematics.joint_state_from_poses`).
+
+Off by default in the estimator: whether it helps depends on how good the joint heads are relative to
+the part votes, and is measured on real predictions elsewhere (docs/voting.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..geometry.kinematics import joint_state_from_poses, revolute_angle
+from ..geometry.transforms import rotation_about_axis
+from ..model.config import ModelConfig
+
+__all__ = ["kinematic_refine", "canonical_joint_axes"]
+
+
+def canonical_joint_axes(cfg: ModelConfig) -> np.ndarray:
+    """``(J, 3)`` unit joint axes in their parents' frames: ``cfg.joint_axes_in_parent``, or (older
+    configurations) those of the category's generator."""
+    if cfg.joint_axes_in_parent:
+        ax = np.asarray(cfg.joint_axes_in_parent, dtype=np.float64)
+    else:
+        from ..objects.categories import make_instance
+
+        ax = np.stack([j.axis for j in make_instance(cfg.category, "train", 0).joints]) if cfg.num_joints else np.zeros((0, 3))
+    if ax.shape != (cfg.num_joints, 3):
+        raise InputError(f"the configuration has {cfg.num_joints} joints but {len(ax)} canonical axes")
+    return ax / np.linalg.norm(ax, axis=-1, keepdims=True)
+
+
+def _procrustes(M: np.ndarray) -> np.ndarray:
+    U, _, Vt = np.linalg.svd(M)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0])
+    return U @ D @ Vt
+
+
+def kinematic_refine(
+    poses,
+    sizes,
+    joints: dict,
+    cfg: ModelConfig,
+    part_weights=None,
+    axis_weight: float = 1.0,
+    iters: int = 10,
+) -> dict[str, np.ndarray]:
+    """Consistent part rotations, joint axes and states (see the module docstring).
+
+    Args:
+        poses: ``(K, 4, 4)`` voted ``cam_from_part``; sizes: ``(K, 3)`` voted sizes.
+        joints: dict with ``joint_axis`` ``(J, 3)`` (voted, camera frame) and optionally
+            ``joint_pivot`` ``(J, 3)`` (kept).
+        cfg: the model configuration (tree, joint types, canonical axes, prismatic zero offsets).
+        part_weights: ``(K,)`` non-negative weights of the voted rotations (default 1 each).
+        axis_weight: weight of each voted joint axis (same units as a part weight).
+        iters: block coordinate descent sweeps.
+
+    Returns:
+        dict: ``cam_from_part`` ``(K, 4, 4)`` (rotations refined, translations as voted),
+        ``joint_axis`` ``(J, 3)`` (``R_parent a_j``), ``joint_pivot`` ``(J, 3)`` (as given, or NaN),
+        ``joint_state`` ``(J,)`` (radians / metres).
+    """
+    K, J = cfg.num_parts, cfg.num_joints
+    T = np.asarray(poses, dtype=np.float64)
+    S = np.asarray(sizes, dtype=np.float64)
+    if T.shape != (K, 4, 4) or S.shape != (K, 3) or not (np.all(np.isfinite(T)) and np.all(np.isfinite(S))):
+        raise InputError(f"poses must be finite (K={K}, 4, 4) and sizes (K, 3), got {T.shape}, {S.shape}")
+    U_hat = np.asarray(joints.get("joint_axis", np.zeros((0, 3))), dtype=np.float64).reshape(-1, 3)
+    if U_hat.shape != (J, 3) or not np.all(np.isfinite(U_hat)):
+        raise InputError(f"joints['joint_axis'] must be finite ({J}, 3), got {U_hat.shape}")
+    pivot = np.asarray(joints.get("joint_pivot", np.full((J, 3), np.nan)), dtype=np.float64).reshape(J, 3)
+    w = np.ones(K) if part_weights is None else np.asarray(part_weights, dtype=np.float64).reshape(K)
+    if np.any(w < 0) or not np.all(np.isfinite(w)):
+        raise InputError("part_weights must be non-negative and finite")
+    out_T = T.copy()
+    if J == 0:
+        return dict(cam_from_part=out_T, joint_axis=np.zeros((0, 3)), joint_pivot=np.zeros((0, 3)), joint_state=np.zeros(0))
+    a = canonical_joint_axes(cfg)
+    parent = np.asarray(cfg.joint_parents)
+    child = np.asarray(cfg.joint_children)
+    jtype = np.asarray(cfg.joint_types)
+    R_hat = T[:, :3, :3]
+    U_hat = U_hat / np.linalg.norm(U_hat, axis=-1, keepdims=True).clip(1e-12)
+    for j in range(J):  # the joint heads' axis sign may disagree with the canonical axis: align it
+        if U_hat[j] @ (R_hat[parent[j]] @ a[j]) < 0:
+            U_hat[j] = -U_hat[j]
+    # Parts in tree order (parents first) and the joint above each part.
+    joint_of = {int(c): j for j, c in enumerate(child)}
+    order, seen = [0], {0}
+    while len(order) < K:
+        grew = False
+        for j in range(J):
+            if int(parent[j]) in seen and int(child[j]) not in seen:
+                order.append(int(child[j]))
+                seen.add(int(child[j]))
+                grew = True
+        if not grew:
+            raise InputError("the joints do not form a tree rooted at part 0")
+    q = np.zeros(J)
+    for j in range(J):
+        if jtype[j] == 0:
+            q[j] = revolute_angle(R_hat[parent[j]].T @ R_hat[child[j]], a[j])
+
+    def chains(q):
+        G = np.zeros((K, 3, 3))
+        G[0] = np.eye(3)
+        for k in order[1:]:
+            j = joint_of[k]
+            rot = rotation_about_axis(a[j], q[j]) if jtype[j] == 0 else np.eye(3)
+            G[k] = G[parent[j]] @ rot
+        return G
+
+    subtree = {k: [k] for k in range(K)}
+    for k in reversed(order[1:]):
+        subtree[int(parent[joint_of[k]])] += subtree[k]
+    R0 = R_hat[0]
+    for _ in range(int(iters)):
+        G = chains(q)
+        M = np.einsum("k,kij,klj->il", w, R_hat, G) + axis_weight * sum(np.outer(U_hat[j], G[parent[j]] @ a[j]) for j in range(J))
+        R0 = _procrustes(M)
+        R = R0 @ G
+        for j in range(J):
+            if jtype[j] != 0:
+                continue
+            Rp = R[parent[j]]
+            N = np.zeros((3, 3))
+            for k in subtree[int(child[j])]:
+                H = R[child[j]].T @ R[k]  # the chain below the child (fixed while q_j changes)
+                N += w[k] * Rp.T @ R_hat[k] @ H.T
+            q[j] = revolute_angle(N, a[j]) if np.any(N) else q[j]
+            R = R0 @ chains(q)
+    R = R0 @ chains(q)
+    out_T[:, :3, :3] = R
+    axis = np.stack([R[parent[j]] @ a[j] for j in range(J)])
+    state = q.copy()
+    zero = cfg.stats.joint_zero_offset_m or (0.0,) * J
+    for j in range(J):
+        if jtype[j] == 1:
+            state[j] = joint_state_from_poses(out_T[parent[j]], out_T[child[j]], axis[j], 1, S[parent[j]], S[child[j]], zero[j])
+    return dict(cam_from_part=out_T, joint_axis=axis, joint_pivot=pivot, joint_state=state)
