@@ -115,6 +115,120 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _estimator(args: argparse.Namespace):
+    from ..voting.estimator import Estimator
+
+    return Estimator.load(args.model, num_pairs=args.pairs, awareness=not args.no_awareness, refine=args.refine, seed=args.seed)
+
+
+def _expand_inputs(spec: str) -> list[Path]:
+    import glob
+
+    from ..data.io import POINT_CLOUD_SUFFIXES
+
+    p = Path(spec)
+    if p.is_dir():
+        files = sorted(f for f in p.iterdir() if f.suffix.lower() in POINT_CLOUD_SUFFIXES)
+    elif any(ch in spec for ch in "*?["):
+        files = sorted(Path(f) for f in glob.glob(spec))
+    else:
+        files = [p]
+    if not files:
+        raise UcopeError(f"--input {spec!r} matches no point cloud files ({', '.join(POINT_CLOUD_SUFFIXES)})")
+    return files
+
+
+def sample_errors(result, sample: dict) -> dict:
+    """Per-part and per-joint errors of ``result`` against a data-set ``sample``'s ground truth."""
+    from ..eval.metrics import joint_errors, part_errors
+
+    parts = [part_errors(p.cam_from_part, p.size_m, sample["cam_from_part"][k], sample["size_m"][k], p.symmetry)
+             for k, p in enumerate(result.parts)]
+    joints = [joint_errors(j.axis, j.pivot_m, j.state, sample["joint_axis"][i], sample["joint_pivot"][i], sample["joint_state"][i], j.type)
+              for i, j in enumerate(result.joints)]
+    return {"parts": parts, "joints": joints}
+
+
+def format_errors(result, errors: dict) -> str:
+    lines = []
+    for p, e in zip(result.parts, errors["parts"]):
+        lines.append(f"  {p.label:14s} rotation {e['rotation_deg']:6.2f} deg  translation {100 * e['translation_m']:6.2f} cm  3D IoU {e['iou']:.3f}")
+    for j, e in zip(result.joints, errors["joints"]):
+        piv = f"  pivot {100 * e['pivot_m']:5.2f} cm" if e["pivot_m"] is not None else ""
+        st = f"{e['state_error']:.2f} deg" if e["state_unit"] == "deg" else f"{100 * e['state_error']:.2f} cm"
+        lines.append(f"  joint {j.parent}->{j.child} ({j.type}): axis {e['axis_deg']:5.2f} deg{piv}  state {st}")
+    return "\n".join(lines)
+
+
+def cmd_predict(args: argparse.Namespace) -> int:
+    from ..data.shards import atomic_write_json
+    from ..data.io import read_depth_png, read_intrinsics, read_point_cloud
+
+    est = _estimator(args)
+    jobs = []  # (name, points, normals, sample)
+    if args.depth is not None:
+        from ..voting.estimator import rgbd_points
+
+        if args.intrinsics is None:
+            raise UcopeError("--depth needs --intrinsics K.json")
+        mask = read_depth_png(args.mask) if args.mask is not None else None
+        pts = rgbd_points(read_depth_png(args.depth), read_intrinsics(args.intrinsics), mask=mask, box=args.box,
+                          depth_scale=args.depth_scale, mask_label=args.mask_label)
+        jobs_done = [(Path(args.depth).stem, est.predict(pts), pts, None)]
+    else:
+        jobs_done = []
+        if args.data is not None:
+            from ..data.dataset import load_dataset
+
+            ds = load_dataset(args.data)
+            for i in args.index or [0]:
+                if not -len(ds) <= i < len(ds):
+                    raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
+                s = ds[i]
+                jobs.append((f"{ds.category}_{s['index']:06d}", s["points"], s["normals"], s))
+        elif args.input is not None:
+            for f in _expand_inputs(args.input):
+                pts, nrm = read_point_cloud(f)
+                jobs.append((f.stem, pts, nrm, None))
+        else:
+            raise UcopeError("give --input CLOUD (or a folder / glob), --depth D.png --intrinsics K.json, or --data DIR --index I")
+        bar = None
+        if len(jobs) > 1 and not args.quiet:
+            try:
+                from tqdm.auto import tqdm
+
+                bar = tqdm(total=len(jobs), desc="predict", unit="cloud", file=sys.stderr)
+            except ImportError:  # pragma: no cover
+                bar = None
+        for name, pts, nrm, s in jobs:
+            res = est.predict(pts, nrm)
+            jobs_done.append((name, res, pts, s))
+            if bar is not None:
+                bar.update(1)
+        if bar is not None:
+            bar.close()
+    many = len(jobs_done) > 1
+    out = Path(args.out)
+    vis_items = []
+    for name, res, pts, s in jobs_done:
+        path = out / f"{name}.json" if many else out
+        d = res.to_dict()
+        if s is not None:
+            d["errors"] = sample_errors(res, s)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(path, d)
+        t = res.timings_ms.get("total", 0.0)
+        print(f"{name}: {len(res.parts)} part(s), {len(res.joints)} joint(s) in {t:.0f} ms -> {path}")
+        if s is not None:
+            print(format_errors(res, d["errors"]))
+        vis_items.append((pts, res, s, name))
+    if args.vis is not None:
+        from ..voting.visualize import plot_results
+
+        print(f"wrote {plot_results(vis_items, args.vis)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..objects.categories import CATEGORY_NAMES
 
@@ -180,6 +294,27 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
+
+    pr = sub.add_parser("predict", help="estimate part poses, joints and segmentation of objects",
+                        description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples.")
+    pr.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
+    pr.add_argument("--input", help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts), a folder or a glob (quote it)")
+    pr.add_argument("--depth", help="depth PNG (16-bit; see --depth-scale)")
+    pr.add_argument("--intrinsics", help="camera intrinsics JSON (fx, fy, cx, cy or K / cam_K)")
+    pr.add_argument("--mask", help="object mask PNG (non-zero = object, or see --mask-label)")
+    pr.add_argument("--mask-label", type=int, nargs="+", default=None, help="mask values that belong to the object")
+    pr.add_argument("--box", type=float, nargs=4, default=None, metavar=("X0", "Y0", "X1", "Y1"), help="pixel box to crop the depth to")
+    pr.add_argument("--depth-scale", type=float, default=1000.0, help="depth units per metre (default 1000: millimetres)")
+    pr.add_argument("--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth")
+    pr.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es) with --data (default 0)")
+    pr.add_argument("--out", required=True, help="result JSON (a folder when there are several inputs)")
+    pr.add_argument("--vis", default=None, help="also draw the estimates into this PNG")
+    pr.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
+    pr.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
+    pr.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
+    pr.add_argument("--seed", type=int, default=0)
+    pr.add_argument("--quiet", action="store_true", help="no progress bar")
+    pr.set_defaults(func=cmd_predict)
 
     d = sub.add_parser("demo", help="generate a few unseen test views of two categories and draw them")
     d.add_argument("--out", default="demo_out", help="folder for the data and the picture (default demo_out)")

@@ -1,0 +1,304 @@
+"""The :class:`Estimator`: a trained network plus the voting, from a point cloud (or RGB-D frame) to a
+:class:`ucope.voting.result.PoseResult`.
+
+Pipeline of :meth:`Estimator.predict` (timed stage by stage in ``result.timings_ms``):
+
+1. **preprocess**: rows with NaN / Inf are dropped (with a warning); a cloud larger than
+   ``max_input_points`` (4096, the density the models were trained on) is subsampled uniformly; normals
+   are estimated (kNN PCA, k = 16) unless given; ``num_points`` points (the model's) are drawn for the
+   network, with their farthest-point-sampling indices.
+2. **encoder**: PointNet++ features, part masks and segmentation, joint heads.
+3. **pair_encoder**: ``num_pairs`` point pairs (default 20,000, as the paper), split evenly over the
+   parts; with part awareness the pairs of part ``k`` are drawn from the points segmented as ``k``.
+4. **voting**: per part, centre, axes and size by voting (:mod:`ucope.voting`); per joint, pivot and
+   axis from the joint heads; joint states from the part poses; optionally the kinematic refinement.
+
+Every random draw comes from ``seed`` (default 0): the same input gives the same result.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import DataError, InputError
+from ..geometry.normals import estimate_normals
+from ..geometry.sampling import random_subset
+from ..model.checkpoint import load_model
+from ..model.network import UCOPENet
+from ..model.pointnet2 import numpy_fps_indices
+from .object import vote_object
+from .result import JointEstimate, PartEstimate, PoseResult
+
+__all__ = ["Estimator", "MIN_POINTS", "prepare_points", "rgbd_points", "pretrained_dir", "list_pretrained"]
+
+MIN_POINTS = 32
+"""The fewest finite points :meth:`Estimator.predict` accepts."""
+
+JOINT_TYPE_NAMES = ("revolute", "prismatic")
+
+
+def pretrained_dir() -> Path:
+    """The folder of the models shipped inside the package (``<category>.json`` + ``.safetensors``)."""
+    return Path(__file__).resolve().parent.parent / "pretrained"
+
+
+def list_pretrained() -> list[str]:
+    """Names of the shipped models."""
+    d = pretrained_dir()
+    return sorted(p.stem for p in d.glob("*.json")) if d.is_dir() else []
+
+
+def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Validate and clean a cloud for the network.
+
+    Args:
+        points: ``(N, 3)`` camera frame, metres (any float dtype, numpy / torch / sequence).
+        normals: optional ``(N, 3)`` (any sign; re-normalised); estimated when ``None``.
+        max_points: clouds above this are subsampled uniformly (from ``seed``) before anything else.
+
+    Returns:
+        ``(pts, nrm, raw, finite)``: float32 ``(P, 3)`` points and unit normals (``P <= max_points``),
+        the input as an ``(N, 3)`` array (not copied) and the ``(N,)`` mask of its usable rows.
+    """
+    if isinstance(points, torch.Tensor):
+        points = points.detach().cpu().numpy()
+    pts = np.asarray(points)
+    if pts.dtype == object or not np.issubdtype(pts.dtype, np.number):
+        raise InputError(f"points must be a numeric (N, 3) array, got dtype {pts.dtype}")
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points must have shape (N, 3), got {pts.shape}")
+    n_in = len(pts)
+    if n_in == 0:
+        raise InputError("the point cloud is empty")
+    nrm = None
+    if normals is not None:
+        if isinstance(normals, torch.Tensor):
+            normals = normals.detach().cpu().numpy()
+        nrm = np.asarray(normals)
+        if nrm.shape != pts.shape:
+            raise InputError(f"normals must have the points' shape {pts.shape}, got {nrm.shape}")
+    finite = np.isfinite(pts).all(axis=1)
+    if nrm is not None:
+        finite &= np.isfinite(nrm).all(axis=1) & (np.abs(nrm).sum(axis=1) > 0)
+    kept = np.flatnonzero(finite)
+    if len(kept) < n_in:
+        if len(kept) < MIN_POINTS:
+            raise InputError(f"only {len(kept)} of {n_in} points are finite (NaN / Inf / zero normals dropped); at least {MIN_POINTS} are needed")
+        warnings.warn(f"dropped {n_in - len(kept)} of {n_in} points with NaN / Inf coordinates or normals", stacklevel=3)
+    if len(kept) < MIN_POINTS:
+        raise InputError(f"the cloud has {len(kept)} points; at least {MIN_POINTS} are needed")
+    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=(1,)))
+    if len(kept) > max_points:
+        kept = kept[random_subset(len(kept), max_points, rng)]
+    p = pts[kept].astype(np.float32)
+    if float(np.ptp(p, axis=0).max()) < 1e-6:
+        raise InputError("all points coincide: the cloud has no extent")
+    if nrm is None:
+        n = estimate_normals(p, k=normal_k)
+    else:
+        n = nrm[kept].astype(np.float32)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return p, n, pts, finite
+
+
+class Estimator:
+    """Estimates the 9D part poses, joints and segmentation of objects of one category.
+
+    Args:
+        model: a trained :class:`ucope.model.network.UCOPENet`.
+        name: the model's name (shown in results).
+        num_pairs: point pairs per object (split over the parts); the paper uses 20,000.
+        awareness: part awareness (only pairs with part score > 0.5 vote for a part, pairs drawn from
+            the segmented part) and joint awareness (only points with joint score and heatmap > 0.5
+            locate a joint); ``False`` for the ablation.
+        refine: the kinematic refinement (off by default: see docs/voting.md for its measured effect).
+        seed: seed of the subsampling and pair draws.
+        device: torch device of the network.
+    """
+
+    def __init__(self, model: UCOPENet, name: str = "", num_pairs: int = 20000, awareness: bool = True,
+                 refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096):
+        if int(num_pairs) < 10:
+            raise InputError(f"num_pairs must be at least 10, got {num_pairs}")
+        self.model = model.to(device).eval()
+        self.cfg = model.cfg
+        self.name = name or self.cfg.category
+        self.num_pairs = int(num_pairs)
+        self.awareness = bool(awareness)
+        self.refine = bool(refine)
+        self.seed = int(seed)
+        self.device = torch.device(device)
+        self.max_input_points = int(max_input_points)
+
+    # ------------------------------------------------------------------------------------- loading
+    @classmethod
+    def load(cls, model: str | os.PathLike, **kwargs) -> "Estimator":
+        """An estimator from a run folder / model JSON path, or the name of a shipped model
+        (``Estimator.load("laptop")``; :func:`list_pretrained` lists them)."""
+        p = Path(model)
+        if p.exists():
+            net, meta = load_model(p)
+            return cls(net, name=str(p), **kwargs)
+        shipped = pretrained_dir() / f"{model}.json"
+        if shipped.is_file():
+            net, meta = load_model(shipped)
+            return cls(net, name=str(model), **kwargs)
+        names = list_pretrained()
+        raise DataError(f"no model {str(model)!r}: not a file or folder, and not a shipped model"
+                        + (f" (shipped: {', '.join(names)})" if names else " (this install ships no models)"))
+
+    @property
+    def category(self) -> str:
+        return self.cfg.category
+
+    # ---------------------------------------------------------------------------------- prediction
+    def predict(self, points, normals=None) -> PoseResult:
+        """Estimate the pose of the object whose (segmented) cloud ``points`` is.
+
+        Args:
+            points: ``(N, 3)`` the object's points in the camera frame (OpenCV axes), metres.
+            normals: optional ``(N, 3)`` unit normals (any sign); estimated when ``None``.
+
+        Returns:
+            a :class:`PoseResult` (``part_labels`` has one entry per input point, -1 for dropped ones).
+        """
+        t0 = time.perf_counter()
+        pts, nrm, raw, finite = prepare_points(points, normals, self.max_input_points, self.seed)
+        cfg = self.cfg
+        rng = np.random.default_rng(np.random.SeedSequence(entropy=self.seed, spawn_key=(2,)))
+        sub = random_subset(len(pts), cfg.num_points, rng)
+        p_net, n_net = pts[sub], nrm[sub]
+        fps = [torch.from_numpy(f)[None].to(self.device) for f in numpy_fps_indices(p_net, cfg.encoder.npoints)]
+        P = torch.from_numpy(p_net)[None].to(self.device)
+        Nn = torch.from_numpy(n_net)[None].to(self.device)
+        t1 = time.perf_counter()
+        with torch.no_grad():
+            enc = self.model.encode(P, Nn, fps)
+            out = dict(enc)
+            if cfg.num_joints > 0:
+                out.update(self.model.joint_heads(enc))
+            labels = enc["seg_logits"][0].argmax(-1).cpu().numpy() if "seg_logits" in enc else np.zeros(len(p_net), np.int64)
+            t2 = time.perf_counter()
+            pair_idx = self._sample_pairs(labels, rng)
+            out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device)))
+        t3 = time.perf_counter()
+        parts, joints = self._vote(p_net, n_net, pair_idx, out)
+        t4 = time.perf_counter()
+        all_labels = label_points(raw, finite, p_net, labels)
+        t5 = time.perf_counter()
+        timings = {"preprocess": 1e3 * (t1 - t0 + t5 - t4), "encoder": 1e3 * (t2 - t1), "pair_encoder": 1e3 * (t3 - t2),
+                   "voting": 1e3 * (t4 - t3), "total": 1e3 * (t5 - t0)}
+        return PoseResult(category=cfg.category, parts=parts, joints=joints, part_labels=all_labels,
+                          timings_ms=timings, model=self.name, num_points=len(raw))
+
+    def _sample_pairs(self, labels: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """``(K, M, 2)`` pair indices, ``M = num_pairs // K``: with awareness, both points of part
+        ``k``'s pairs come from the points segmented as ``k`` (all points if fewer than 3 are)."""
+        K = self.cfg.num_parts
+        M = max(1, self.num_pairs // K)
+        N = len(labels)
+        out = np.empty((K, M, 2), dtype=np.int64)
+        for k in range(K):  # a handful of parts
+            own = np.flatnonzero(labels == k) if self.awareness else np.arange(N)
+            pool = own if len(own) >= 3 else np.arange(N)
+            out[k] = pool[rng.integers(0, len(pool), size=(M, 2))]
+        return out
+
+    def _vote(self, p_net, n_net, pair_idx, out) -> tuple[list[PartEstimate], list[JointEstimate]]:
+        cfg = self.cfg
+        v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine)
+        parts = [PartEstimate(index=k, label=cfg.part_names[k], cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
+                              size_m=np.asarray(v["size_m"][k], np.float64), score=float(v["score"][k]),
+                              symmetry=cfg.part_symmetry[k], num_votes=int(v["num_pairs"][k]))
+                 for k in range(cfg.num_parts)]
+        joints = []
+        for j in range(cfg.num_joints):
+            jt = JOINT_TYPE_NAMES[cfg.joint_types[j]]
+            piv = np.asarray(v["joint_pivot"][j], np.float64)
+            joints.append(JointEstimate(type=jt, parent=cfg.joint_parents[j], child=cfg.joint_children[j],
+                                        pivot_m=piv if jt == "revolute" and np.all(np.isfinite(piv)) else None,
+                                        axis=np.asarray(v["joint_axis"][j], np.float64), state=float(v["joint_state"][j]),
+                                        score=float(v["joint_score"][j])))
+        return parts, joints
+
+    def predict_rgbd(self, depth, intrinsics, mask=None, box=None, depth_scale: float = 1000.0, mask_label=None) -> PoseResult:
+        """Estimate the pose from a depth image of the object: :func:`rgbd_points` then :meth:`predict`
+        (arguments as :func:`rgbd_points`)."""
+        return self.predict(rgbd_points(depth, intrinsics, mask, box, depth_scale, mask_label))
+
+    def predict_sample(self, sample: dict) -> PoseResult:
+        """Estimate on a data-set sample (its points and normals; the ground truth is not used)."""
+        return self.predict(sample["points"], sample["normals"])
+
+
+def label_points(raw: np.ndarray, finite: np.ndarray, ref: np.ndarray, ref_labels: np.ndarray, chunk: int = 1 << 18) -> np.ndarray:
+    """The label of the nearest ``ref`` point for every usable row of ``raw`` (``-1`` elsewhere),
+    in chunks so that a cloud of millions of points needs little extra memory."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(ref)
+    out = np.full(len(raw), -1, dtype=np.int64)
+    for lo in range(0, len(raw), chunk):
+        f = np.flatnonzero(finite[lo : lo + chunk])
+        if len(f):
+            out[lo + f] = ref_labels[tree.query(raw[lo + f].astype(np.float32), k=1)[1]]
+    return out
+
+
+def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 1000.0, mask_label=None) -> np.ndarray:
+    """The object's points (camera frame, metres) from a depth image, back-projected and cleaned.
+
+    Args:
+        depth: ``(H, W)`` depth (z, not range); ``depth / depth_scale`` is metres (default 1000:
+            millimetres, as 16-bit PNGs hold them); 0, NaN or Inf = no measurement.
+        intrinsics: ``(fx, fy, cx, cy)`` in pixels or a ``(3, 3)`` matrix K.
+        mask: optional ``(H, W)`` object mask: boolean / 0-1, or a label image with ``mask_label``
+            (one value or several) selecting the object's values.
+        box: optional ``(x_min, y_min, x_max, y_max)`` pixel box (columns, rows; max exclusive) to
+            crop to (e.g. a detector's box), combined with ``mask``.
+
+    Points far from the bulk of the object (mask bleeding onto the background) are removed:
+    those more than 3x the median distance from the median point, and at least 0.05 m away.
+    """
+    from ..render.camera import PinholeCamera
+
+    d = np.asarray(depth)
+    if d.ndim != 2 or d.size == 0:
+        raise InputError(f"depth must be a non-empty (H, W) image, got shape {d.shape}")
+    if not np.issubdtype(d.dtype, np.number):
+        raise InputError(f"depth must be numeric, got dtype {d.dtype}")
+    if not (np.isfinite(depth_scale) and depth_scale > 0):
+        raise InputError(f"depth_scale must be positive, got {depth_scale}")
+    H, W = d.shape
+    K = np.asarray(intrinsics, dtype=np.float64)
+    if K.shape == (3, 3):
+        K = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+    if K.shape != (4,) or not np.all(np.isfinite(K)) or K[0] <= 0 or K[1] <= 0:
+        raise InputError(f"intrinsics must be (fx, fy, cx, cy) or a 3x3 K with positive focal lengths, got {np.asarray(intrinsics).tolist()}")
+    valid = np.ones((H, W), bool)
+    if mask is not None:
+        m = np.asarray(mask)
+        if m.shape != (H, W):
+            raise InputError(f"mask has shape {m.shape}, the depth image {d.shape}")
+        valid &= np.isin(m, np.atleast_1d(mask_label)) if mask_label is not None else m.astype(bool)
+    if box is not None:
+        x0, y0, x1, y1 = (int(round(float(v))) for v in box)
+        if not (0 <= x0 < x1 <= W and 0 <= y0 < y1 <= H):
+            raise InputError(f"box {tuple(box)} is not inside the {W}x{H} image (x_min < x_max <= W, y_min < y_max <= H)")
+        crop = np.zeros_like(valid)
+        crop[y0:y1, x0:x1] = True
+        valid &= crop
+    cam = PinholeCamera(fx=K[0], fy=K[1], cx=K[2], cy=K[3], width=W, height=H)
+    pts, _ = cam.backproject(d.astype(np.float64) / depth_scale, valid)
+    if len(pts) == 0:
+        raise InputError("no valid depth pixels inside the mask / box")
+    med = np.median(pts, axis=0)
+    r = np.linalg.norm(pts - med, axis=1)
+    keep = r <= max(3.0 * float(np.median(r)), 0.05)
+    return pts[keep]

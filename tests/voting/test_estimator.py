@@ -1,0 +1,172 @@
+import json
+import warnings
+
+import numpy as np
+import pytest
+import torch
+
+from ucope.cli.main import main
+from ucope.data.generate import GenerateConfig, make_sample
+from ucope.errors import DataError, InputError
+from ucope.model.train import TrainConfig, train
+from ucope.voting.estimator import MIN_POINTS, Estimator, rgbd_points
+from ucope.voting.result import PoseResult
+
+TINY_ENCODER = dict(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """A tiny laptop model trained for a few steps (end-to-end plumbing, not accuracy)."""
+    from ucope.model.pointnet2 import PointNet2Config
+
+    out = tmp_path_factory.mktemp("run")
+    train(TrainConfig(category="laptop", out=str(out), on_the_fly=True, epoch_size=8, steps=4, batch_size=2, val_samples=2,
+                      model_overrides=dict(encoder=PointNet2Config(**TINY_ENCODER), num_points=256, pairs_per_part=32, hidden=32),
+                      progress=False, threads=1))
+    return out
+
+
+@pytest.fixture(scope="module")
+def est(tiny_run):
+    return Estimator.load(tiny_run, num_pairs=2000)
+
+
+@pytest.fixture(scope="module")
+def sample():
+    return make_sample(GenerateConfig(category="laptop", split="test", num=4, views_per_instance=1), 0)
+
+
+def test_predict_end_to_end_on_a_data_set_sample(est, sample):
+    r = est.predict_sample(sample)
+    assert isinstance(r, PoseResult) and r.category == "laptop"
+    assert [p.label for p in r.parts] == ["base", "lid"]
+    for p in r.parts:
+        R = p.cam_from_part[:3, :3]
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-5)
+        assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-5)
+        assert np.all(p.size_m > 0) and np.all(np.isfinite(p.cam_from_part))
+    assert len(r.joints) == 1 and r.joints[0].type == "revolute"
+    assert np.linalg.norm(r.joints[0].axis) == pytest.approx(1.0, abs=1e-5)
+    assert r.part_labels.shape == (len(sample["points"]),) and set(np.unique(r.part_labels)) <= {0, 1}
+    assert set(r.timings_ms) >= {"preprocess", "encoder", "pair_encoder", "voting", "total"}
+    assert PoseResult.from_json(r.to_json()).to_dict() == r.to_dict()
+
+
+def test_predict_is_repeatable_and_estimates_normals(est, sample):
+    a = est.predict(sample["points"])  # no normals given: estimated
+    b = est.predict(sample["points"])
+    assert a.to_dict()["parts"] == b.to_dict()["parts"]
+
+
+@pytest.mark.parametrize("bad, match", [
+    (np.zeros((0, 3)), "empty"),
+    (np.zeros((10, 3)), f"at least {MIN_POINTS}"),
+    (np.zeros((100, 2)), r"shape \(N, 3\)"),
+    (np.zeros((5, 100, 3)), r"shape \(N, 3\)"),
+    (np.full((200, 3), np.nan), "finite"),
+    (np.array([["a", "b", "c"]] * 40), "numeric"),
+    (np.ones((100, 3)), "coincide"),
+])
+def test_bad_clouds_get_clear_errors(est, bad, match):
+    with pytest.raises(InputError, match=match):
+        est.predict(bad)
+
+
+def test_nan_rows_are_dropped_with_a_warning(est, sample):
+    pts = np.array(sample["points"], dtype=np.float64)
+    pts[::7] = np.nan
+    pts[3] = np.inf
+    with pytest.warns(UserWarning, match="dropped"):
+        r = est.predict(pts)
+    bad = ~np.isfinite(pts).all(1)
+    assert np.all(r.part_labels[bad] == -1) and np.all(r.part_labels[~bad] >= 0)
+
+
+def test_wrong_normals_shape_is_named(est, sample):
+    with pytest.raises(InputError, match="normals"):
+        est.predict(sample["points"], sample["normals"][:10])
+
+
+def test_huge_cloud_is_subsampled(est, sample):
+    rng = np.random.default_rng(0)
+    base = np.asarray(sample["points"], np.float32)
+    big = base[rng.integers(0, len(base), 2_000_000)] + rng.normal(0, 1e-3, (2_000_000, 3)).astype(np.float32)
+    r = est.predict(big)
+    assert r.num_points == 2_000_000 and r.part_labels.shape == (2_000_000,) and np.all(r.part_labels >= 0)
+
+
+def test_rgbd_back_projection_mask_and_box():
+    depth = np.zeros((40, 60), np.uint16)
+    depth[10:30, 20:40] = 1500
+    depth[0, 0] = 500  # a stray pixel outside the mask
+    mask = np.zeros((40, 60), np.uint8)
+    mask[10:30, 20:40] = 3
+    K = (50.0, 50.0, 30.0, 20.0)
+    pts = rgbd_points(depth, K, mask=mask, mask_label=3)
+    assert len(pts) == 400 and np.allclose(pts[:, 2], 1.5)
+    assert len(rgbd_points(depth, K, box=(20, 10, 30, 20))) == 100
+    with pytest.raises(InputError, match="no valid depth"):
+        rgbd_points(depth, K, mask=mask, mask_label=7)
+    with pytest.raises(InputError, match="mask has shape"):
+        rgbd_points(depth, K, mask=mask[:5])
+    with pytest.raises(InputError, match="intrinsics"):
+        rgbd_points(depth, (0.0, 50.0, 30.0, 20.0))
+    with pytest.raises(InputError, match="box"):
+        rgbd_points(depth, K, box=(50, 10, 20, 30))
+
+
+def test_missing_or_tampered_model(tiny_run, tmp_path):
+    with pytest.raises(DataError, match="no model 'toaster'"):
+        Estimator.load("toaster")
+    import shutil
+
+    bad = tmp_path / "bad"
+    shutil.copytree(tiny_run, bad)
+    w = bad / "model.safetensors"
+    data = bytearray(w.read_bytes())
+    data[-50] ^= 0x01
+    w.write_bytes(bytes(data))
+    with pytest.raises(DataError, match="modified"):
+        Estimator.load(bad)
+
+
+def test_cli_predict_on_files_folder_and_dataset(tiny_run, sample, tmp_path, capsys):
+    np.save(tmp_path / "a.npy", sample["points"])
+    np.savetxt(tmp_path / "b.xyz", np.asarray(sample["points"])[:800])
+    assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path / "a.npy"), "--out", str(tmp_path / "a.json"),
+                 "--pairs", "1000", "--vis", str(tmp_path / "a.png")]) == 0
+    d = json.loads((tmp_path / "a.json").read_text())
+    assert d["format"] == "ucope-result/1" and len(d["parts"]) == 2
+    assert (tmp_path / "a.png").stat().st_size > 1000
+    assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path), "--out", str(tmp_path / "many"), "--pairs", "1000", "--quiet"]) == 0
+    assert sorted(p.name for p in (tmp_path / "many").iterdir()) == ["a.json", "b.json"]
+    main(["generate", "--category", "laptop", "--split", "test", "--num", "2", "--shard-size", "2", "--out", str(tmp_path / "d"), "--quiet"])
+    capsys.readouterr()
+    assert main(["predict", "--model", str(tiny_run), "--data", str(tmp_path / "d"), "--index", "0", "1", "--out", str(tmp_path / "ds"),
+                 "--pairs", "1000", "--vis", str(tmp_path / "ds.png"), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "rotation" in printed and "joint 0->1 (revolute)" in printed
+    d = json.loads((tmp_path / "ds" / "laptop_000000.json").read_text())
+    assert set(d["errors"]["parts"][0]) >= {"rotation_deg", "translation_m", "iou"}
+
+
+def test_cli_predict_rgbd_and_errors(tiny_run, tmp_path, capsys):
+    from ucope.data.images import write_png
+
+    cfg = GenerateConfig(category="laptop", split="test", num=1, views_per_instance=1)
+    s, view = make_sample(cfg, 0, return_view=True)
+    write_png(tmp_path / "d.png", view.depth_mm)
+    write_png(tmp_path / "m.png", view.mask)
+    (tmp_path / "K.json").write_text(json.dumps({"fx": s["intrinsics"][0], "fy": s["intrinsics"][1], "cx": s["intrinsics"][2], "cy": s["intrinsics"][3]}))
+    assert main(["predict", "--model", str(tiny_run), "--depth", str(tmp_path / "d.png"), "--mask", str(tmp_path / "m.png"),
+                 "--mask-label", "0", "1", "--intrinsics", str(tmp_path / "K.json"), "--out", str(tmp_path / "r.json"), "--pairs", "1000"]) == 0
+    assert json.loads((tmp_path / "r.json").read_text())["num_points"] > 100
+    assert main(["predict", "--model", str(tiny_run), "--depth", str(tmp_path / "d.png"), "--out", str(tmp_path / "r.json")]) == 2
+    assert "--intrinsics" in capsys.readouterr().err
+    assert main(["predict", "--model", str(tmp_path / "nope"), "--input", "x.npy", "--out", str(tmp_path / "r.json")]) == 2
+    assert "no model" in capsys.readouterr().err
+    (tmp_path / "broken.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 100\n")
+    assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path / "broken.ply"), "--out", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert "broken.ply" in err and "Traceback" not in err
