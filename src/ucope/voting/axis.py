@@ -176,7 +176,9 @@ def _refine_axis(u, e, angle, w, tol0: float, tol_min: float, iters: int, tol_st
         H = (J * wi) @ J.T
         g = (J * wi) @ r
         H = H + (1e-6 * float(H.diagonal().sum()) + 1e-12) * torch.eye(2, device=u.device, dtype=u.dtype)
-        d = torch.linalg.solve(H, -g)
+        d, info = torch.linalg.solve_ex(H, -g)
+        if int(info) != 0 or not bool(torch.isfinite(d).all()):
+            break
         u = u + d[0] * b1 + d[1] * b2
         u = u / u.norm()
         new_tol = min(tol0, max(tol_min, 3.0 * float(r_ang[inl].median())))

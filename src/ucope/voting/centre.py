@@ -20,6 +20,12 @@ finds the point most circles pass through:
    each step is a 3x3 solve). The weights are Tukey's biweight of ``d_i / tol`` where ``tol`` starts at
    ``inlier_tol_cells`` cells and shrinks to ``3 x`` the median inlier distance (never below
    ``min_tol_cells`` cells), so circles from outliers or from clipped bins drop out.
+3. **Mirror check**: when the pair points are (nearly) coplanar (a thin part, one visible face), every
+   circle is symmetric about their plane and the centre's mirror image fits equally well (the
+   parameters cannot tell the two apart). The mirror image is refined too; if its inlier weight is at
+   least ``mirror_ratio`` of the other's, the centre farther behind the surface as seen from
+   ``viewpoint`` (the camera) is kept, since a visible face has its box behind it. Otherwise the
+   better-supported one wins.
 
 Defaults (relative to the vote range ``V`` of the part, :class:`ucope.model.config.CategoryStats`):
 ``cell_m = V / 20`` (the ``mu`` bins are ``V / 16`` wide, so a cell is a little under a bin),
@@ -173,7 +179,9 @@ def _refine_centre(c, f, e, p, nu, w, tol0: float, tol_min: float, iters: int, t
         # Normal equations: sum w (ph ph^T + e e^T) dc = -sum w (closest-point residual d - nu ph).
         A = (ph * wi) @ ph.T + (e * wi) @ e.T
         g = ((d - nu * ph) * wi).sum(1)
-        step = torch.linalg.solve(A + (1e-9 * W) * eye, g)
+        step, info = torch.linalg.solve_ex(A + (1e-6 * W) * eye, g)
+        if int(info) != 0 or not bool(torch.isfinite(step).all()):  # degenerate geometry: keep c
+            break
         c = c - step
         med = float(r[inl].median())
         new_tol = min(tol0, max(tol_min, 3.0 * med))
@@ -199,6 +207,8 @@ def vote_centre(
     max_cells: int = 96,
     max_grid_pairs: int = 4096,
     max_refine_pairs: int = 4096,
+    viewpoint=(0.0, 0.0, 0.0),
+    mirror_ratio: float = 0.8,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Vote the part centre from point pairs (see the module docstring for the algorithm).
 
@@ -218,6 +228,11 @@ def vote_centre(
         max_grid_pairs: at most this many pairs (an evenly strided subset of the voting pairs) cast
             grid votes; max_refine_pairs: at most this many (evenly strided) are refined on. The
             inlier test uses every pair.
+        viewpoint: ``(3,)`` the camera centre in the frame of the points (the origin in the camera
+            frame), used to resolve the mirror ambiguity of coplanar pairs (step 3); ``None`` keeps the
+            refined grid peak.
+        mirror_ratio: the mirror image counts as "as good" when its inlier weight is at least this
+            fraction of the other's.
 
     Returns:
         ``centre`` ``(3,)`` metres and ``inliers`` ``(M,)`` bool (weight > 0 and circle distance
@@ -249,11 +264,15 @@ def vote_centre(
     c, inliers, _ = _vote_centre(
         a.T.contiguous(), b.T.contiguous(), mu, nu, w, cell, num_angles, float(inlier_tol_cells),
         float(min_tol_cells), int(refine_iters), int(max_cells), int(max_grid_pairs), int(max_refine_pairs),
+        viewpoint, float(mirror_ratio),
     )
     return c, inliers
 
 
-def _vote_centre(at, bt, mu, nu, w, cell, num_angles, inlier_tol_cells, min_tol_cells, refine_iters, max_cells, max_grid_pairs, max_refine_pairs):
+def _vote_centre(
+    at, bt, mu, nu, w, cell, num_angles, inlier_tol_cells, min_tol_cells, refine_iters, max_cells, max_grid_pairs,
+    max_refine_pairs, viewpoint=(0.0, 0.0, 0.0), mirror_ratio: float = 0.8,
+):
     """:func:`vote_centre` on checked, coordinate-major ``at, bt`` ``(3, M)``; also returns ``e`` ``(3, M)``."""
     dev = at.device
     e, f, p, q, valid = pair_frames(at, bt, mu)
@@ -273,6 +292,27 @@ def _vote_centre(at, bt, mu, nu, w, cell, num_angles, inlier_tol_cells, min_tol_
     tol0 = inlier_tol_cells * cell
     tol_min = min(min_tol_cells * cell, tol0)
     rs = strided(voting, max_refine_pairs)
-    c = _refine_centre(c, f[:, rs], e[:, rs], p[:, rs], nu[rs], w[rs], tol0, tol_min, refine_iters, tol0)
+    fr, er, pr, nur, wr = f[:, rs], e[:, rs], p[:, rs], nu[rs], w[rs]
+    c = _refine_centre(c, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+
+    # 3. Mirror ambiguity: if the pair points are (nearly) coplanar, every circle is symmetric about
+    # their plane and the centre's mirror image fits as well. Try it; if it fits about as well, keep
+    # the one behind the surface as seen from the viewpoint (a visible face has the box behind it).
+    if viewpoint is not None and refine_iters > 0:
+        pts = at[:, rs]
+        m = pts.mean(1, keepdim=True)
+        evals, evecs = torch.linalg.eigh(((pts - m) @ (pts - m).T).double())
+        n = evecs[:, 0].to(c.dtype)
+        h = float((c - m[:, 0]) @ n)
+        if abs(h) > tol_min:
+            c2 = _refine_centre(c - 2.0 * h * n, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+            s1 = float((wr * (circle_distance(c, fr, er, nur) < tol0)).sum())
+            s2 = float((wr * (circle_distance(c2, fr, er, nur) < tol0)).sum())
+            if s2 > s1 / mirror_ratio:
+                c = c2
+            elif s2 >= mirror_ratio * s1:  # ambiguous: the candidate farther behind the surface
+                toward_view = torch.as_tensor(viewpoint, dtype=c.dtype, device=dev) - m[:, 0]
+                if float((c2 - c) @ toward_view) < 0:
+                    c = c2
     inliers = (circle_distance(c, f, e, nu) < tol0) & (w > 0)
     return c, inliers, e

@@ -149,7 +149,9 @@ def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -
         tr = float(H.diagonal().sum())
         if tr <= 0:
             break
-        d = torch.linalg.solve(H + (1e-6 * tr) * eye, -g)
+        d, info = torch.linalg.solve_ex(H + (1e-6 * tr) * eye, -g)
+        if int(info) != 0 or not bool(torch.isfinite(d).all()):
+            break
         R = so3_exp(d) @ R
         if float(d.norm()) < 1e-3 * tol_min and all(t[5] <= tol_min for t in prepared):  # converged
             break

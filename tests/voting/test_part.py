@@ -1,0 +1,186 @@
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from ucope.errors import InputError
+from ucope.model.config import CategoryStats, ModelConfig
+from ucope.voting import VotingOptions, rotation_from_axes, vote_part, vote_parts
+from ucope.voting.rotation import refine_rotation
+
+from voting_support import angle_deg, box_surface_points, random_part, synthetic_heads
+
+HEADS = ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score")
+
+
+def _check_pose(r, T, size, V, sym):
+    cell = V / 20
+    assert np.linalg.norm(r.cam_from_part[:3, 3] - T[:3, 3]) < 0.25 * cell
+    R = r.cam_from_part[:3, :3]
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-6)
+    assert np.linalg.det(R) > 0
+    assert angle_deg(R[:, 1], T[:3, 1]) < 0.5
+    if not sym:
+        assert angle_deg(R[:, 0], T[:3, 0]) < 0.5
+    assert np.all(np.abs(r.size_m / size - 1) < 0.01)
+
+
+@pytest.mark.parametrize("outliers", [0.0, 0.2])
+@pytest.mark.parametrize("sym", [False, True])
+def test_vote_part_recovers_exact_poses(rng, outliers, sym):
+    for _ in range(3):
+        T, size = random_part(rng, sym)
+        mean = size * rng.uniform(0.7, 1.3, 3)
+        a, b, n, h, V = synthetic_heads(rng, T, size, mean, 4000, outlier_frac=outliers)
+        r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=mean, symmetric=sym)
+        _check_pose(r, T, size, V, sym)
+        assert r.num_pairs == 4000 and not r.fallback
+        assert abs(r.num_inliers / 4000 - (1 - outliers)) < 0.05
+        assert 0.9 * (1 - outliers) < r.score <= 1.0
+        assert set(r.timings_ms) == {"decode", "centre", "axes", "rotation", "size"}
+
+
+def test_awareness_drops_pairs_across_parts_and_falls_back(rng):
+    T, size = random_part(rng)
+    # 60% of the pairs span two parts (random parameters); the part score knows them.
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 3000)
+    bad = torch.tensor(rng.random(3000) < 0.6)
+    for k in ("mu_logits", "nu_logits", "alpha_logits", "beta_logits"):
+        h[k] = torch.where(bad[:, None], torch.randn(3000, h[k].shape[1]) * 3, h[k])
+    h["part_score"] = torch.where(bad, -4.0, 4.0)
+    r_on = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    r_off = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, awareness=False)
+    assert r_on.num_pairs == int((~bad).sum()) and r_off.num_pairs == 3000
+    _check_pose(r_on, T, size, V, False)
+    assert r_on.score > r_off.score
+    # No pair passes: every pair votes, flagged, with a lower score.
+    h["part_score"] = torch.full((3000,), -3.0)
+    r_fb = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    assert r_fb.fallback and r_fb.num_pairs == 3000 and r_fb.score < 0.1
+
+
+def test_degenerate_inputs_do_not_crash(rng):
+    T, size = random_part(rng)
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 20, outlier_frac=1.0)  # nothing agrees
+    r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    assert np.all(np.isfinite(r.cam_from_part)) and np.all(r.size_m > 0)
+    r = vote_part(a[:1], b[:1], n[:1], *(h[k][:1] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    assert np.all(np.isfinite(r.cam_from_part)) and r.fallback
+
+
+def test_bad_inputs_raise_input_errors(rng):
+    T, size = random_part(rng)
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 50)
+    args = [a, b, n] + [h[k] for k in HEADS]
+    bad = list(args)
+    bad[3] = h["mu_logits"].clone()
+    bad[3][0, 0] = float("nan")
+    with pytest.raises(InputError, match="NaN"):
+        vote_part(*bad, vote_range_m=V, mean_size_m=size)
+    bad = list(args)
+    bad[8] = h["gamma"][:, :2]
+    with pytest.raises(InputError, match="gamma"):
+        vote_part(*bad, vote_range_m=V, mean_size_m=size)
+    with pytest.raises(InputError):
+        vote_part(*args, vote_range_m=-1.0, mean_size_m=size)
+    with pytest.raises(InputError):
+        vote_part(*args, vote_range_m=V, mean_size_m=[1.0, 0.0, 1.0])
+
+
+def _config(K, sizes, V, sym=False):
+    stats = CategoryStats(vote_range_m=tuple(V), mean_size_m=tuple(tuple(s) for s in sizes), norm_scale_m=0.3)
+    return ModelConfig(
+        category="toy", part_names=tuple(f"p{k}" for k in range(K)), part_symmetry=("y" if sym else "none",) * K,
+        joint_types=(0,) * (K - 1), joint_parents=(0,) * (K - 1), joint_children=tuple(range(1, K)), stats=stats,
+    )
+
+
+@pytest.mark.parametrize("K", [1, 2, 3, 4])
+def test_vote_parts_from_network_shaped_outputs(rng, K):
+    poses, sizes, pts_all = [], [], []
+    for k in range(K):
+        T, s = random_part(rng)
+        T[:3, 3] += np.array([0.5 * k, 0.0, 0.0])
+        poses.append(T)
+        sizes.append(s)
+        pts_all.append(box_surface_points(rng, T, s, 600))
+    points = np.concatenate(pts_all)
+    normals = rng.normal(size=points.shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    M = 800
+    pair_idx = np.stack([600 * k + rng.integers(0, 600, (M, 2)) for k in range(K)])
+    V = [1.1 * 0.5 * float(np.linalg.norm(s)) for s in sizes]
+    outs = {n: [] for n in HEADS}
+    for k in range(K):
+        pk = points[pair_idx[k].reshape(-1)].reshape(M, 2, 3)
+        a, b, n_, h, _ = synthetic_heads(rng, poses[k], sizes[k], sizes[k], M, V=V[k], points=np.concatenate([pk[:, 0], pk[:, 1]]))
+        # The helper draws its own normals: recompute the sign bits for the cloud's normals.
+        from ucope.model.targets import pair_vote_targets
+
+        t = pair_vote_targets(a, b, torch.tensor(normals[pair_idx[k, :, 0]], dtype=torch.float32),
+                              torch.tensor(poses[k], dtype=torch.float32), torch.tensor(sizes[k], dtype=torch.float32),
+                              torch.tensor(sizes[k], dtype=torch.float32))
+        h["sign_logits"] = t["sign"] * 8 - 4
+        for name in HEADS:
+            outs[name].append(h[name])
+    outputs = {name: torch.stack(v)[None] for name, v in outs.items()}
+    cfg = _config(K, sizes, V)
+    res = vote_parts(torch.tensor(points, dtype=torch.float32)[None], torch.tensor(normals, dtype=torch.float32)[None],
+                     torch.tensor(pair_idx)[None], outputs, cfg)
+    assert res["cam_from_part"].shape == (K, 4, 4) and res["size_m"].shape == (K, 3) and len(res["timings_ms"]) == K
+    for k in range(K):
+        assert np.linalg.norm(res["cam_from_part"][k, :3, 3] - poses[k][:3, 3]) < 0.25 * V[k] / 20
+        assert angle_deg(res["cam_from_part"][k, :3, 1], poses[k][:3, 1]) < 0.5
+        assert angle_deg(res["cam_from_part"][k, :3, 0], poses[k][:3, 0]) < 0.5
+        np.testing.assert_allclose(res["size_m"][k], sizes[k], rtol=0.01)
+    # Unbatched inputs work too; wrong shapes are named.
+    res2 = vote_parts(points, normals, pair_idx, {k: v[0] for k, v in outputs.items()}, cfg)
+    np.testing.assert_allclose(res2["cam_from_part"], res["cam_from_part"], atol=1e-6)
+    with pytest.raises(InputError, match="mu_logits"):
+        vote_parts(points, normals, pair_idx, {**outputs, "mu_logits": outputs["mu_logits"][:, :, :10]}, cfg)
+    with pytest.raises(InputError, match="pair_idx"):
+        vote_parts(points, normals, pair_idx + len(points), outputs, cfg)
+
+
+def test_rotation_from_axes():
+    g = torch.Generator().manual_seed(0)
+    for _ in range(10):
+        R0 = torch.linalg.qr(torch.randn(3, 3, generator=g))[0]
+        R0 = R0 * torch.sign(torch.linalg.det(R0))
+        x = R0[:, 0] + 0.02 * torch.randn(3, generator=g)
+        y = R0[:, 1] + 0.02 * torch.randn(3, generator=g)
+        R = rotation_from_axes(y, x)
+        torch.testing.assert_close(R.T @ R, torch.eye(3), atol=1e-5, rtol=0)
+        assert float(torch.linalg.det(R)) > 0
+        assert angle_deg(R[:, 0], x) < 3 and angle_deg(R[:, 1], y) < 3
+        Rs = rotation_from_axes(y)  # symmetric part: y exact, a deterministic x
+        torch.testing.assert_close(Rs[:, 1], y / y.norm())
+        torch.testing.assert_close(Rs, rotation_from_axes(y), rtol=0, atol=0)
+        torch.testing.assert_close(Rs.T @ Rs, torch.eye(3), atol=1e-5, rtol=0)
+    with pytest.raises(InputError):
+        rotation_from_axes(torch.tensor([0.0, 1.0, 0.0]), torch.tensor([0.0, 2.0, 0.0]))
+    with pytest.raises(InputError):
+        rotation_from_axes(torch.zeros(3))
+
+
+def test_refine_rotation_is_the_joint_optimum(rng):
+    from ucope.geometry.transforms import random_rotation
+
+    R = random_rotation(rng)
+    e = rng.normal(size=(500, 3))
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    alpha, beta = np.arccos(e @ R[:, 1]), np.arccos(e @ R[:, 0])
+    t = lambda x: torch.tensor(x, dtype=torch.float32)  # noqa: E731
+    start = rotation_from_axes(t(R[:, 1] + 0.03), t(R[:, 0] - 0.03))
+    out = refine_rotation(start, t(e), t(alpha), torch.ones(500), t(e), t(beta), torch.ones(500)).numpy()
+    assert angle_deg(out[:, 0], R[:, 0]) < 0.05 and angle_deg(out[:, 1], R[:, 1]) < 0.05
+
+
+def test_options_are_used(rng):
+    T, size = random_part(rng)
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 2000)
+    r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size,
+                  options=VotingOptions(refine_rotation=False, use_sign_bits=False, max_axis_pairs=500, num_angles=24))
+    _check_pose(r, T, size, V, False)
+    assert math.isfinite(r.score)
