@@ -15,4 +15,17 @@ CONVENTIONS_VERSION = "1"
 GENERATOR_VERSION = "1"
 """Version of the procedural generators and renderer; data sets record it in meta.json."""
 
-__all__ = ["__version__", "CONVENTIONS_VERSION", "GENERATOR_VERSION"]
+__all__ = ["__version__", "CONVENTIONS_VERSION", "GENERATOR_VERSION", "Estimator", "PoseResult"]
+
+
+def __getattr__(name: str):
+    """``ucope.Estimator`` and ``ucope.PoseResult``, imported on first use (``import ucope`` stays light)."""
+    if name == "Estimator":
+        from .voting.estimator import Estimator
+
+        return Estimator
+    if name == "PoseResult":
+        from .voting.result import PoseResult
+
+        return PoseResult
+    raise AttributeError(f"module 'ucope' has no attribute {name!r}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -74,23 +75,66 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from ..data.generate import GenerateConfig, generate_dataset
-    from ..data.dataset import load_dataset
-    from ..data.visualize import plot_samples
+    from ..data.generate import GenerateConfig, make_sample
+    from ..data.shards import atomic_write_json
+    from ..eval.evaluate import sample_errors
+    from ..voting.estimator import Estimator
+    from ..voting.visualize import plot_results
 
     out = Path(args.out)
-    samples = []
+    out.mkdir(parents=True, exist_ok=True)
+    items = []
+    t0 = time.perf_counter()
     for cat in args.categories:
-        cfg = GenerateConfig(category=cat, split="test", num=args.num, seed=args.seed, shard_size=args.num,
-                             views_per_instance=1)
-        ds = load_dataset(generate_dataset(out / cat, cfg, progress=False))
-        for s in ds:
-            samples.append(s)
-            parts = ", ".join(f"{n}: {len(s['points'][s['part_labels'] == k])} pts" for k, n in enumerate(ds.meta["part_names"]))
-            print(f"{cat} #{s['index']} ({s['instance_id']}): {parts}; joint state {s['joint_state'].round(3).tolist()}")
-    pic = plot_samples(samples, out / "demo.png", cols=args.num)
-    print(f"wrote {pic}")
+        est = Estimator.load(cat, num_pairs=args.pairs, seed=args.seed)
+        # Unseen instances: the test split's instance stream is disjoint from the training one.
+        gen = GenerateConfig(category=cat, split="test", num=args.num, seed=args.seed, views_per_instance=1)
+        for i in range(args.num):
+            s = make_sample(gen, i)
+            res = est.predict_sample(s)
+            err = sample_errors(res, s)
+            name = f"{cat}_{i:02d}"
+            d = res.to_dict()
+            d["errors"] = err
+            atomic_write_json(out / f"{name}.json", d)
+            print(f"{cat} test view {i} ({s['instance_id']}, unseen instance), {res.timings_ms['total']:.0f} ms:")
+            print(format_errors(res, err))
+            items.append((s["points"], res, s, f"{name}: predicted (solid) vs ground truth (dashed)"))
+    pic = plot_results(items, out / "demo.png", cols=max(1, args.num))
+    print(f"wrote {pic} and one result JSON per view in {out}/ ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    from ..model.checkpoint import read_model_json
+    from ..voting.estimator import list_pretrained, pretrained_dir
+
+    names = list_pretrained()
+    if not names:
+        print("this install ships no models")
+        return 0
+    for name in names:
+        meta = read_model_json(pretrained_dir() / f"{name}.json")
+        cfg, info = meta["config"], meta.get("info", {})
+        test = info.get("test", {})
+        w = meta["weights"]
+        joints = ", ".join(("revolute", "prismatic")[t] for t in cfg["joint_types"]) or "rigid"
+        print(f"{name}: {len(cfg['part_names'])} part(s) ({', '.join(cfg['part_names'])}); {joints}; "
+              f"{cfg['head']} head; {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
+              f"trained {info.get('steps', '?')} steps")
+        if test:
+            line = (f"  test split ({test.get('num_samples')} unseen views): rotation {_fmt_list(test.get('rotation_deg_mean'), '{:.1f}')} deg, "
+                    f"translation {_fmt_list(test.get('translation_m_mean'), '{:.3f}')} m, IoU {_fmt_list(test.get('iou_mean'), '{:.2f}')}")
+            if test.get("joint_axis_deg_mean"):
+                line += f"; joint axis {_fmt_list(test['joint_axis_deg_mean'], '{:.1f}')} deg"
+            if test.get("map"):
+                line += f"; mAP 10deg5cm {100 * test['map']['10deg5cm']:.1f}%, 3D50 {100 * test['map']['3D50']:.1f}%"
+            print(line)
+    return 0
+
+
+def _fmt_list(values, fmt: str) -> str:
+    return "/".join("-" if v is None else fmt.format(v) for v in (values or []))
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -99,6 +143,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     overrides = {}
     if args.pairs_per_part is not None:
         overrides["pairs_per_part"] = args.pairs_per_part
+    if args.head != "voting":
+        overrides["head"] = args.head
     tc = TrainConfig(
         category=args.category, out=args.out, data=args.data, val_data=args.val_data, on_the_fly=args.on_the_fly,
         steps=args.steps, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, lr_step_epochs=args.lr_step_epochs,
@@ -136,17 +182,6 @@ def _expand_inputs(spec: str) -> list[Path]:
     if not files:
         raise UcopeError(f"--input {spec!r} matches no point cloud files ({', '.join(POINT_CLOUD_SUFFIXES)})")
     return files
-
-
-def sample_errors(result, sample: dict) -> dict:
-    """Per-part and per-joint errors of ``result`` against a data-set ``sample``'s ground truth."""
-    from ..eval.metrics import joint_errors, part_errors
-
-    parts = [part_errors(p.cam_from_part, p.size_m, sample["cam_from_part"][k], sample["size_m"][k], p.symmetry)
-             for k, p in enumerate(result.parts)]
-    joints = [joint_errors(j.axis, j.pivot_m, j.state, sample["joint_axis"][i], sample["joint_pivot"][i], sample["joint_state"][i], j.type)
-              for i, j in enumerate(result.joints)]
-    return {"parts": parts, "joints": joints}
 
 
 def format_errors(result, errors: dict) -> str:
@@ -214,6 +249,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
         path = out / f"{name}.json" if many else out
         d = res.to_dict()
         if s is not None:
+            from ..eval.evaluate import sample_errors
+
             d["errors"] = sample_errors(res, s)
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_json(path, d)
@@ -226,6 +263,28 @@ def cmd_predict(args: argparse.Namespace) -> int:
         from ..voting.visualize import plot_results
 
         print(f"wrote {plot_results(vis_items, args.vis)}")
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from ..data.dataset import load_dataset
+    from ..data.shards import atomic_write_json
+    from ..eval.evaluate import evaluate, format_report
+
+    est = _estimator(args)
+    ds = load_dataset(args.data)
+    n = len(ds) if args.num is None else min(len(ds), args.num)
+    if n <= 0:
+        raise UcopeError(f"--num must be positive, got {args.num}")
+    info = {"path": str(Path(args.data).resolve()), "split": ds.meta.get("split"), "seed": ds.meta.get("seed"),
+            "generator_version": ds.meta.get("generator_version")}
+    report = evaluate(est, ds[:n], progress=not args.quiet, data_info=info)
+    report["command"] = "ucope " + shlex.join(args.argv)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out, report)
+    print(format_report(report))
+    print(f"wrote {out}")
     return 0
 
 
@@ -280,6 +339,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--lr-step-epochs", type=float, default=10.0, help="multiply the lr by --lr-gamma every this many epochs (default 10)")
     t.add_argument("--lr-gamma", type=float, default=0.1)
     t.add_argument("--pairs-per-part", type=int, default=None, help="point pairs per part per item (default 512)")
+    t.add_argument("--head", choices=["voting", "regression"], default="voting",
+                   help="voting: U-COPE (default); regression: the direct-regression baseline (same encoder, masks and joint heads)")
     t.add_argument("--seed", type=int, default=0, help="seed of the weights, sample order and draws")
     t.add_argument("--data-seed", type=int, default=0, help="seed of generated samples (--on-the-fly, default validation set)")
     t.add_argument("--epoch-size", type=int, default=4000, help="samples per epoch with --on-the-fly")
@@ -316,10 +377,27 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--quiet", action="store_true", help="no progress bar")
     pr.set_defaults(func=cmd_predict)
 
-    d = sub.add_parser("demo", help="generate a few unseen test views of two categories and draw them")
-    d.add_argument("--out", default="demo_out", help="folder for the data and the picture (default demo_out)")
-    d.add_argument("--categories", nargs="+", default=["laptop", "mug"])
-    d.add_argument("--num", type=int, default=3, help="views per category")
+    mo = sub.add_parser("models", help="list the models shipped inside the package, with their test-split figures")
+    mo.set_defaults(func=cmd_models)
+
+    ev = sub.add_parser("eval", help="evaluate a model on a (test) data set: Table-2 / Table-1 shaped figures and a JSON report",
+                        description="Predict on every sample of --data and measure per-part, joint, segmentation and (rigid) mAP metrics.")
+    ev.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
+    ev.add_argument("--data", required=True, help="data set folder (e.g. from `ucope generate --split test`)")
+    ev.add_argument("--out", required=True, help="report JSON to write")
+    ev.add_argument("--num", type=int, default=None, help="evaluate only the first NUM samples")
+    ev.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
+    ev.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
+    ev.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
+    ev.add_argument("--seed", type=int, default=0)
+    ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    ev.set_defaults(func=cmd_eval)
+
+    d = sub.add_parser("demo", help="run the shipped models on unseen test views, print errors against the ground truth, draw them")
+    d.add_argument("--out", default="demo_out", help="folder for the pictures and result JSONs (default demo_out)")
+    d.add_argument("--categories", nargs="+", default=["laptop", "mug"], help="shipped models to run (default laptop mug)")
+    d.add_argument("--num", type=int, default=2, help="views per category (default 2)")
+    d.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
     d.add_argument("--seed", type=int, default=0)
     d.set_defaults(func=cmd_demo)
     return p
@@ -327,7 +405,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
+    args.argv = argv
     if args.command is None:
         parser.print_help()
         return 0

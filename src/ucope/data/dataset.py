@@ -17,9 +17,10 @@ __all__ = ["SyntheticDataset", "load_dataset"]
 
 class SyntheticDataset(Sequence):
     """A generated data set on disk, as a read-only sequence of sample dicts (see
-    :mod:`ucope.data.sample`). Shards are read lazily; the last few are kept in memory."""
+    :mod:`ucope.data.sample`). Shards are read lazily; the last ``cache_shards`` read are kept in
+    memory (``None``: every shard, for training's random access, see :func:`load_dataset`)."""
 
-    def __init__(self, root: str | Path, cache_shards: int = 4):
+    def __init__(self, root: str | Path, cache_shards: int | None = 4):
         self.root = Path(root)
         if not self.root.is_dir():
             raise DataError(f"data set folder {self.root} does not exist")
@@ -38,7 +39,7 @@ class SyntheticDataset(Sequence):
                 f"(first: {shard_name(missing[0])}); re-run the same `ucope generate` command to finish it"
             )
         self._cache: OrderedDict[int, list[dict]] = OrderedDict()
-        self._cache_size = max(1, cache_shards)
+        self._cache_size = n_shards if cache_shards is None else max(1, int(cache_shards))
 
     @property
     def camera(self) -> PinholeCamera:
@@ -80,6 +81,14 @@ class SyntheticDataset(Sequence):
         return f"SyntheticDataset({str(self.root)!r}, category={self.category!r}, split={self.meta.get('split')!r}, num={self._num})"
 
 
-def load_dataset(root: str | Path) -> SyntheticDataset:
-    """Open a data set made by ``ucope generate`` (folder with ``meta.json`` and shards)."""
-    return SyntheticDataset(root)
+def load_dataset(root: str | Path, cache_bytes: int = 0) -> SyntheticDataset:
+    """Open a data set made by ``ucope generate`` (folder with ``meta.json`` and shards).
+
+    Args:
+        cache_bytes: keep every shard in memory once read when the shard files add up to at most this
+            many bytes (training reads samples in random order: re-reading a 100-sample shard for each
+            sample costs more than the training step); otherwise (default) only the last 4.
+    """
+    root = Path(root)
+    size = sum(f.stat().st_size for f in root.glob("shard_*.npz")) if cache_bytes > 0 and root.is_dir() else None
+    return SyntheticDataset(root, cache_shards=None if size is not None and size <= cache_bytes else 4)

@@ -175,7 +175,7 @@ def load_model(path: str | os.PathLike, device: str | torch.device = "cpu"):
 
     Raises :class:`DataError` for a missing, truncated, tampered or mismatched file.
     """
-    from .network import UCOPENet
+    from .network import build_model
 
     j = resolve_model_path(path)
     meta = read_model_json(j)
@@ -184,7 +184,7 @@ def load_model(path: str | os.PathLike, device: str | torch.device = "cpu"):
     except (InputError, KeyError) as e:
         raise DataError(f"{j}: {e}") from None
     tensors = _read_weights(j, meta.get("weights", {}))
-    model = UCOPENet(cfg)
+    model = build_model(cfg)
     _load_state(model, tensors, j)
     return model.to(device).eval(), meta
 

@@ -32,7 +32,7 @@ from .config import ModelConfig
 from .pointnet2 import PointNet2Encoder
 from .targets import joint_point_targets, pair_features, pair_vote_targets, two_hot, bin_centres
 
-__all__ = ["UCOPENet", "PerGroupLinear"]
+__all__ = ["UCOPENet", "PerGroupLinear", "build_model"]
 
 
 class PerGroupLinear(nn.Module):
@@ -47,9 +47,10 @@ class PerGroupLinear(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """``x``: ``(B, G, *, I)`` -> ``(B, G, *, O)``."""
         B, G = x.shape[:2]
-        flat = x.reshape(B, G, -1, x.shape[-1])
-        y = torch.einsum("bgni,gio->bgno", flat, self.weight) + self.bias[None, :, None, :]
-        return y.reshape(*x.shape[:-1], -1)
+        I = x.shape[-1]
+        flat = x.reshape(B, G, -1, I).transpose(0, 1).reshape(G, -1, I)  # (G, B n, I); a view when B = 1
+        y = torch.baddbmm(self.bias.unsqueeze(1), flat, self.weight)  # (G, B n, O)
+        return y.reshape(G, B, -1, y.shape[-1]).transpose(0, 1).reshape(*x.shape[:-1], -1)
 
 
 def _mlp(c_in: int, hidden: int, layers: int = 2) -> nn.Sequential:
@@ -74,19 +75,7 @@ class UCOPENet(nn.Module):
         self.encoder = PointNet2Encoder(cfg.encoder)
         C = self.encoder.out_channels
         self.mask_head = nn.Sequential(nn.Linear(C, H), nn.ReLU(inplace=True), nn.Linear(H, K)) if K > 1 else None
-        self.out_sizes = {
-            "mu_logits": cfg.mu_bins,
-            "nu_logits": cfg.nu_bins,
-            "alpha_logits": cfg.angle_bins,
-            "beta_logits": cfg.angle_bins,
-            "sign_logits": 2,
-            "gamma": 3,
-            "part_score": 1,
-        }
-        self.pair_point = nn.Linear(C, 2 * H, bias=False)  # [W_a F_i ; W_b F_j], applied per point
-        self.pair_geo = nn.Linear(4 + K, H)  # PPF + part one-hot, with the first layer's bias
-        self.pair_mlp = nn.Sequential(nn.ReLU(inplace=False), nn.Linear(H, H), nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True))
-        self.pair_out = PerGroupLinear(K, H, sum(self.out_sizes.values()))
+        self._build_pose_heads(C, K, H)
         if J > 0:
             self.joint_mlp = _mlp(C, H, 2)
             self.joint_out = PerGroupLinear(J, H, 8)
@@ -97,6 +86,22 @@ class UCOPENet(nn.Module):
         self.register_buffer("joint_child_idx", torch.tensor(cfg.joint_children, dtype=torch.long), persistent=False)
         self.register_buffer("symmetric", torch.tensor([s == "y" for s in cfg.part_symmetry]), persistent=False)
         self.norm_scale = float(stats.norm_scale_m)
+
+    def _build_pose_heads(self, C: int, K: int, H: int) -> None:
+        """The pair ("PPF") encoder: per pair and part, the voting parameters and the part score."""
+        self.out_sizes = {
+            "mu_logits": self.cfg.mu_bins,
+            "nu_logits": self.cfg.nu_bins,
+            "alpha_logits": self.cfg.angle_bins,
+            "beta_logits": self.cfg.angle_bins,
+            "sign_logits": 2,
+            "gamma": 3,
+            "part_score": 1,
+        }
+        self.pair_point = nn.Linear(C, 2 * H, bias=False)  # [W_a F_i ; W_b F_j], applied per point
+        self.pair_geo = nn.Linear(4 + K, H)  # PPF + part one-hot, with the first layer's bias
+        self.pair_mlp = nn.Sequential(nn.ReLU(inplace=False), nn.Linear(H, H), nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True))
+        self.pair_out = PerGroupLinear(K, H, sum(self.out_sizes.values()))
 
     # ------------------------------------------------------------------------------------------ forward
     def encode(self, points: torch.Tensor, normals: torch.Tensor, fps_idx=None) -> dict[str, torch.Tensor]:
@@ -142,14 +147,18 @@ class UCOPENet(nn.Module):
             raise InputError(f"pair_idx must be (B={B}, K={K}, M, 2), got {tuple(pair_idx.shape)}")
         M = pair_idx.shape[2]
         f1, masks = enc["feats"], enc["masks"]
-        proj = self.pair_point(f1)  # (B, N, 2H), linear: (F1 * m_k) W = m_k (F1 W)
+        # First layer per point and part ((F1 * m_k) W = m_k (F1 W), it is linear), then gathered:
+        # part k's pair (i, j) takes pa[k, i] + pb[k, j].
+        proj = self.pair_point(f1)  # (B, N, 2H)
+        mk = masks.permute(0, 2, 1).unsqueeze(-1)  # (B, K, N, 1)
+        pa = (mk * proj[:, None, :, :H]).reshape(B * K * N, H)
+        pb = (mk * proj[:, None, :, H:]).reshape(B * K * N, H)
+        offs = (torch.arange(B * K, device=points.device) * N).view(B, K, 1)  # row of (b, k, point 0)
+        ia = (pair_idx[..., 0] + offs).reshape(-1)
+        ib = (pair_idx[..., 1] + offs).reshape(-1)
+        h = (pa.index_select(0, ia) + pb.index_select(0, ib)).reshape(B, K, M, H)
         flat = pair_idx.reshape(B, K * M * 2)
         bidx = torch.arange(B, device=points.device)[:, None]
-        m_pair = masks[bidx, flat].reshape(B, K, M, 2, K)
-        kk = torch.arange(K, device=points.device)
-        m_pair = m_pair[:, kk, :, :, kk].permute(1, 0, 2, 3)  # (B, K, M, 2): m_k at each pair point
-        p_pair = proj[bidx, flat].reshape(B, K, M, 2, 2 * H)
-        h = p_pair[..., 0, :H] * m_pair[..., 0:1] + p_pair[..., 1, H:] * m_pair[..., 1:2]
         pts = points[bidx, flat].reshape(B, K, M, 2, 3)
         nrm = normals[bidx, flat].reshape(B, K, M, 2, 3)
         geo = pair_features(pts[..., 0, :], pts[..., 1, :], nrm[..., 0, :], nrm[..., 1, :], self.norm_scale)
@@ -305,3 +314,13 @@ class UCOPENet(nn.Module):
                 pivot_err_m=float((l_pvt * s).sum() / rev.sum().clamp_min(1.0)),
             )
         return per_joint.sum()
+
+
+def build_model(cfg: ModelConfig) -> UCOPENet:
+    """The network ``cfg`` describes: :class:`UCOPENet` (``cfg.head == "voting"``) or the
+    direct-regression baseline :class:`ucope.model.regression.RegressionNet` (``"regression"``)."""
+    if cfg.head == "regression":
+        from .regression import RegressionNet
+
+        return RegressionNet(cfg)
+    return UCOPENet(cfg)

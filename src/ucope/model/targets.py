@@ -52,11 +52,16 @@ def pair_features(a: torch.Tensor, b: torch.Tensor, n_a: torch.Tensor, n_b: torc
     Returns:
         ``(..., 4)``; rotation- and translation-invariant, invariant to the normals' signs.
     """
+    # Equal to canonical_pair_normals followed by the dot products, with three dot products only:
+    # flipping n so that n . e >= 0 turns n . e into |n . e| and n_a . n_b into s_a s_b n_a . n_b.
     d = a - b
     dist = d.norm(dim=-1)
-    e = d / dist.clamp_min(1e-9).unsqueeze(-1)
-    na, nb = canonical_pair_normals(e, n_a, n_b)
-    return torch.stack([dist / scale, (na * e).sum(-1), (nb * e).sum(-1), (na * nb).sum(-1)], dim=-1)
+    inv = 1.0 / dist.clamp_min(1e-9)
+    da = (n_a * d).sum(-1)
+    db = (n_b * d).sum(-1)
+    flip = (da < 0) != (db < 0)
+    nab = (n_a * n_b).sum(-1)
+    return torch.stack([dist / scale, da.abs() * inv, db.abs() * inv, torch.where(flip, -nab, nab)], dim=-1)
 
 
 def pair_vote_targets(

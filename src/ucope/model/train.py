@@ -49,7 +49,7 @@ from ..errors import DataError, InputError, UcopeError
 from .batch import TrainingItems, batch_to, collate_items
 from .checkpoint import load_checkpoint, save_checkpoint, save_model
 from .config import ModelConfig, compute_category_stats
-from .network import UCOPENet
+from .network import UCOPENet, build_model
 
 __all__ = ["TrainConfig", "TrainingError", "train", "parameter_digest"]
 
@@ -190,6 +190,9 @@ class _Dist:
             dist.destroy_process_group()
 
 
+_CACHE_BYTES = 6 << 30  # training data up to this size is kept in memory once read (per process)
+
+
 def _load_samples(tc: TrainConfig):
     """The training samples and a description of where they come from."""
     if tc.on_the_fly:
@@ -200,7 +203,7 @@ def _load_samples(tc: TrainConfig):
                    "generator_version": GENERATOR_VERSION}
     from ..data.dataset import load_dataset
 
-    ds = load_dataset(tc.data)
+    ds = load_dataset(tc.data, cache_bytes=_CACHE_BYTES)
     if ds.category != tc.category:
         raise InputError(f"data set {tc.data} holds {ds.category!r} samples, the training is for {tc.category!r}")
     meta = ds.meta
@@ -330,7 +333,7 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
         stats = compute_category_stats(samples, max_samples=300 if tc.on_the_fly else 2000)
         cfg = ModelConfig.for_category(tc.category, stats, size=tc.model_size, **tc.model_overrides)
     torch.manual_seed(tc.seed)
-    model = UCOPENet(cfg)
+    model = build_model(cfg)
     optimizer = torch.optim.Adam(model.parameters(), lr=tc.lr)
     step, elapsed_before = 0, 0.0
     if ckpt is not None:
@@ -450,6 +453,7 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
             "joints": [{"type": ("revolute", "prismatic")[t], "parent": p, "child": c}
                        for t, p, c in zip(cfg.joint_types, cfg.joint_parents, cfg.joint_children)],
             "model_size": tc.model_size,
+            "head": cfg.head,
             "ucope_version": __version__,
             "conventions_version": CONVENTIONS_VERSION,
             "generator_version": GENERATOR_VERSION,

@@ -10,6 +10,8 @@ Pipeline of :meth:`Estimator.predict` (timed stage by stage in ``result.timings_
 2. **encoder**: PointNet++ features, part masks and segmentation, joint heads.
 3. **pair_encoder**: ``num_pairs`` point pairs (default 20,000, as the paper), split evenly over the
    parts; with part awareness the pairs of part ``k`` are drawn from the points segmented as ``k``.
+   (For the direct-regression baseline, ``ModelConfig.head == "regression"``, this stage is its pose
+   regression head instead, and the next one reads the regressed poses.)
 4. **voting**: per part, centre, axes and size by voting (:mod:`ucope.voting`); per joint, pivot and
    axis from the joint heads; joint states from the part poses; optionally the kinematic refinement.
 
@@ -32,7 +34,7 @@ from ..geometry.sampling import random_subset
 from ..model.checkpoint import load_model
 from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
-from .object import vote_object
+from .object import regressed_object, vote_object
 from .result import JointEstimate, PartEstimate, PoseResult
 
 __all__ = ["Estimator", "MIN_POINTS", "prepare_points", "rgbd_points", "pretrained_dir", "list_pretrained"]
@@ -185,10 +187,17 @@ class Estimator:
                 out.update(self.model.joint_heads(enc))
             labels = enc["seg_logits"][0].argmax(-1).cpu().numpy() if "seg_logits" in enc else np.zeros(len(p_net), np.int64)
             t2 = time.perf_counter()
-            pair_idx = self._sample_pairs(labels, rng)
-            out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device)))
+            if cfg.head == "regression":  # the baseline: no pairs, no voting
+                out.update(self.model.regress(enc, P))
+            else:
+                pair_idx = self._sample_pairs(labels, rng)
+                out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device)))
         t3 = time.perf_counter()
-        parts, joints = self._vote(p_net, n_net, pair_idx, out)
+        if cfg.head == "regression":
+            v = regressed_object(p_net, out, cfg, awareness=self.awareness, refine=self.refine)
+        else:
+            v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine)
+        parts, joints = self._estimates(v)
         t4 = time.perf_counter()
         all_labels = label_points(raw, finite, p_net, labels)
         t5 = time.perf_counter()
@@ -210,9 +219,9 @@ class Estimator:
             out[k] = pool[rng.integers(0, len(pool), size=(M, 2))]
         return out
 
-    def _vote(self, p_net, n_net, pair_idx, out) -> tuple[list[PartEstimate], list[JointEstimate]]:
+    def _estimates(self, v: dict) -> tuple[list[PartEstimate], list[JointEstimate]]:
+        """The result's parts and joints from the dict of :func:`vote_object` / :func:`regressed_object`."""
         cfg = self.cfg
-        v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine)
         parts = [PartEstimate(index=k, label=cfg.part_names[k], cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
                               size_m=np.asarray(v["size_m"][k], np.float64), score=float(v["score"][k]),
                               symmetry=cfg.part_symmetry[k], num_votes=int(v["num_pairs"][k]))

@@ -12,7 +12,7 @@ from .joints import vote_joints
 from .kinematic import kinematic_refine
 from .part import VotingOptions, vote_parts
 
-__all__ = ["vote_object"]
+__all__ = ["vote_object", "regressed_object"]
 
 
 def vote_object(
@@ -41,6 +41,27 @@ def vote_object(
         ``(J,)``; ``refined`` tells whether the kinematic refinement ran.
     """
     out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options)
+    return _with_joints(out, points, outputs, cfg, awareness, refine)
+
+
+def regressed_object(points, outputs: Mapping[str, Any], cfg: ModelConfig, awareness: bool = True, refine: bool = False) -> dict[str, Any]:
+    """The same dict as :func:`vote_object` for the direct-regression baseline
+    (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
+    ``(1, K, 3, 3)``, ``centre_m`` ``(1, K, 3)`` and ``gamma`` ``(1, K, 3)`` outputs (score 1, no
+    pairs), joints and joint states exactly as for U-COPE."""
+    K = cfg.num_parts
+    R = outputs["rotation"].reshape(K, 3, 3).double().cpu().numpy()
+    t = outputs["centre_m"].reshape(K, 3).double().cpu().numpy()
+    gamma = outputs["gamma"].reshape(K, 3).double().cpu().numpy()
+    T = np.tile(np.eye(4), (K, 1, 1))
+    T[:, :3, :3], T[:, :3, 3] = R, t
+    out = {"cam_from_part": T, "size_m": np.exp(gamma) * np.asarray(cfg.stats.mean_size_m, np.float64),
+           "score": np.ones(K), "num_pairs": np.zeros(K, dtype=np.int64)}
+    return _with_joints(out, points, outputs, cfg, awareness, refine)
+
+
+def _with_joints(out: dict, points, outputs, cfg: ModelConfig, awareness: bool, refine: bool) -> dict[str, Any]:
+    """Add the joints (:func:`vote_joints`), the joint states and the optional refinement to ``out``."""
     out.update(vote_joints(points, outputs, cfg, awareness=awareness))
     J = cfg.num_joints
     T, S = out["cam_from_part"], out["size_m"]

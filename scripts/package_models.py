@@ -1,0 +1,94 @@
+"""Copy trained models into the package (src/ucope/pretrained/<category>.json + .safetensors).
+
+    python scripts/package_models.py --runs work/runs --reports work/reports [--categories laptop mug ...]
+
+Each model is stored in half precision (float16) after checking that it predicts as well as its float32
+original: both are evaluated on the same test views (the first ``--check-num`` of the report's data
+set) and the largest change of any part's mean rotation (deg), translation (m) and IoU is recorded in
+the model's JSON (``info.fp16_check``); if it exceeds ``--max-change-deg`` / ``--max-change-m`` the
+model is stored in float32 instead. The JSON's ``info`` also carries the model card and the test-split
+figures of its ``ucope eval`` report (``info.test``), which ``ucope models`` prints.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+from ucope.data.dataset import load_dataset  # noqa: E402
+from ucope.eval.evaluate import evaluate  # noqa: E402
+from ucope.model.checkpoint import load_model, save_model  # noqa: E402
+from ucope.objects.categories import CATEGORY_NAMES  # noqa: E402
+from ucope.voting.estimator import Estimator, pretrained_dir  # noqa: E402
+
+
+def test_figures(rep: dict) -> dict:
+    """The compact test-split figures stored with a shipped model."""
+    p = rep["parts"]
+    out = {
+        "num_samples": rep["data"]["num_samples"], "data_split": rep["data"].get("split"),
+        "rotation_deg_mean": p["rotation_deg"]["mean"], "translation_m_mean": p["translation_m"]["mean"],
+        "iou_mean": p["iou"]["mean"], "fraction_10deg10cm": p["fraction"]["10deg10cm"],
+        "time_s_mean": rep["time_ms"]["mean"]["total"] / 1000.0,
+    }
+    if rep.get("joints"):
+        out["joint_axis_deg_mean"] = rep["joints"]["axis_deg"]["mean"]
+        out["joint_state_error_mean"] = rep["joints"]["state_error"]["mean"]
+        out["joint_state_unit"] = rep["joints"]["state_unit"]
+    if rep.get("map"):
+        out["map"] = rep["map"]["mean"]
+    return out
+
+
+def summary(rep: dict) -> tuple[list, list, list]:
+    p = rep["parts"]
+    return p["rotation_deg"]["mean"], p["translation_m"]["mean"], p["iou"]["mean"]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=Path, required=True)
+    ap.add_argument("--reports", type=Path, required=True)
+    ap.add_argument("--categories", nargs="+", default=None)
+    ap.add_argument("--check-num", type=int, default=60)
+    ap.add_argument("--max-change-deg", type=float, default=0.5)
+    ap.add_argument("--max-change-m", type=float, default=0.002)
+    args = ap.parse_args()
+    dest = pretrained_dir()
+    dest.mkdir(parents=True, exist_ok=True)
+    cats = args.categories or [c for c in CATEGORY_NAMES if (args.runs / c / "model.json").is_file()]
+    for cat in cats:
+        run, rep_path = args.runs / cat, args.reports / f"{cat}.json"
+        rep = json.loads(rep_path.read_text())
+        model, meta = load_model(run)
+        ds = load_dataset(rep["data"]["path"])
+        n = min(args.check_num, len(ds))
+        check = ds[:n]
+        ref = evaluate(Estimator(model, name=cat), check, progress=False, keep_samples=False)
+        with tempfile.TemporaryDirectory() as tmp:
+            half_json = save_model(model, Path(tmp) / "half.json", dtype="float16")
+            half, _ = load_model(half_json)
+            got = evaluate(Estimator(half, name=cat), check, progress=False, keep_samples=False)
+        change = [max(abs(a - b) for a, b in zip(x, y)) for x, y in zip(summary(ref), summary(got))]
+        fp16_ok = change[0] <= args.max_change_deg and change[1] <= args.max_change_m
+        info = dict(meta.get("info", {}))
+        info["test"] = test_figures(rep)
+        info["fp16_check"] = {"num_samples": n, "max_change_rotation_deg": change[0], "max_change_translation_m": change[1],
+                              "max_change_iou": change[2], "stored_as": "float16" if fp16_ok else "float32"}
+        out = save_model(model, dest / f"{cat}.json", info=info, dtype="float16" if fp16_ok else "float32")
+        size = out.with_suffix(".safetensors").stat().st_size
+        print(f"{cat}: {'float16' if fp16_ok else 'float32'} ({size / 1e6:.2f} MB); fp16 change rot {change[0]:.3f} deg, "
+              f"trans {change[1] * 1000:.2f} mm, IoU {change[2]:.4f} on {n} views -> {out}")
+    total = sum(f.stat().st_size for f in dest.iterdir())
+    print(f"{dest}: {total / 1e6:.1f} MB in all")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
