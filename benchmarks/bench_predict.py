@@ -1,6 +1,6 @@
 """Time ``Estimator.predict`` for one object, stage by stage (preprocess, encoder, pair encoder, voting).
 
-    python benchmarks/bench_predict.py --model RUN_OR_NAME [--model ...] [--pairs 20000] [--threads 2]
+    python benchmarks/bench_predict.py [--model NAME_OR_RUN ...] [--pairs 20000] [--threads 2]
 
 Target (issue 4): 50 ms or less per object with 20,000 pairs on 2 CPU cores. Measured on unseen test
 views of each model's category, with the views' normals given (as a depth pipeline has them) and, in a
@@ -40,7 +40,7 @@ def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool = Fa
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", nargs="+", required=True, help="shipped model names or run folders")
+    ap.add_argument("--model", nargs="+", default=["laptop", "mug"], help="shipped model names or run folders (default laptop mug)")
     ap.add_argument("--pairs", type=int, default=20000)
     ap.add_argument("--repeats", type=int, default=20)
     ap.add_argument("--threads", type=int, default=2)

@@ -96,3 +96,12 @@ def test_intrinsics(tmp_path):
     (tmp_path / "e.json").write_text(json.dumps({"fx": -1, "fy": 1, "cx": 0, "cy": 0}))
     with pytest.raises(DataError, match="positive"):
         read_intrinsics(tmp_path / "e.json")
+
+
+def test_intrinsics_from_a_bop_scene_camera(tmp_path):
+    K = [500, 0, 320, 0, 501, 240, 0, 0, 1]
+    (tmp_path / "s.json").write_text(json.dumps({"0": {"cam_K": K, "depth_scale": 1.0}, "1": {"cam_K": K, "depth_scale": 1.0}}))
+    assert read_intrinsics(tmp_path / "s.json").tolist() == [500, 501, 320, 240]
+    (tmp_path / "t.json").write_text(json.dumps({"0": {"cam_K": K}, "1": {"cam_K": [600, 0, 320, 0, 600, 240, 0, 0, 1]}}))
+    with pytest.raises(DataError, match="2 different cameras"):
+        read_intrinsics(tmp_path / "t.json")

@@ -103,3 +103,30 @@ def test_category_mismatch_is_named():
     r = Oracle("laptop").predict_sample(samples("laptop")[0])
     with pytest.raises(InputError, match="different categories"):
         sample_errors(r, samples("drawer")[0])
+
+
+@pytest.mark.parametrize("head", ["voting", "regression"])
+def test_cli_eval_writes_a_report_and_prints_the_table(tmp_path, capsys, head):
+    """`ucope eval` end to end on an untrained tiny model (plumbing, not accuracy), both heads."""
+    import torch
+
+    from ucope.cli.main import main
+    from ucope.model.checkpoint import save_model
+    from ucope.model.network import build_model
+    from ucope.model.pointnet2 import PointNet2Config
+
+    cfg = ModelConfig.for_category("laptop", compute_category_stats(samples("laptop")), head=head,
+                                   encoder=PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8)),
+                                   num_points=256, hidden=16)
+    torch.manual_seed(0)
+    save_model(build_model(cfg), tmp_path / "run")
+    assert main(["generate", "--category", "laptop", "--split", "test", "--num", "3", "--out", str(tmp_path / "data"), "--quiet"]) == 0
+    rc = main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "data"), "--out", str(tmp_path / "r.json"),
+               "--num", "2", "--pairs", "500", "--quiet"])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "rotation error (deg)" in out and "joint axis error (deg)" in out
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert rep["head"] == head and rep["data"]["num_samples"] == 2 and rep["settings"]["num_pairs"] == 500
+    assert rep["command"].startswith("ucope eval --model") and len(rep["samples"]) == 2
+    assert main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.json")]) == 2

@@ -35,9 +35,10 @@ def box_surface_points(rng, T, size, n):
     return p @ T[:3, :3].T + T[:3, 3]
 
 
-def synthetic_heads(rng, T, size, mean_size, M, outlier_frac=0.0, bins=(32, 32, 36), V=None, points=None):
+def synthetic_heads(rng, T, size, mean_size, M, outlier_frac=0.0, bins=(32, 32, 36), V=None, points=None, noise=(0.0, 0.0)):
     """Pairs on the box and exact heads for them (float32 torch), with a fraction of outlier pairs
-    whose parameters (and sign bits) are random.
+    whose parameters (and sign bits) are random, and Gaussian noise ``noise = (sigma_m, sigma_rad)`` on
+    every inlier's ``mu, nu`` (metres) and ``alpha, beta`` (radians), like a network's errors.
 
     Returns ``(a, b, n_a, heads, V)``; ``heads`` holds the 7 per-pair outputs of one part.
     """
@@ -50,6 +51,11 @@ def synthetic_heads(rng, T, size, mean_size, M, outlier_frac=0.0, bins=(32, 32, 
     t = pair_vote_targets(a, b, n, torch.tensor(T, dtype=torch.float32), torch.tensor(size, dtype=torch.float32),
                           torch.tensor(mean_size, dtype=torch.float32))
     out = torch.from_numpy(rng.random(M) < outlier_frac)
+    if noise[0] > 0 or noise[1] > 0:
+        for k, sd in (("mu", noise[0]), ("nu", noise[0]), ("alpha", noise[1]), ("beta", noise[1])):
+            t[k] = t[k] + torch.tensor(rng.normal(0.0, sd, M), dtype=torch.float32)
+        t["nu"] = t["nu"].clamp(0.0, V)
+        t["alpha"], t["beta"] = t["alpha"].clamp(0.0, math.pi), t["beta"].clamp(0.0, math.pi)
     ranges = {"mu": (-V, V), "nu": (0.0, V), "alpha": (0.0, math.pi), "beta": (0.0, math.pi)}
     for k, (lo, hi) in ranges.items():
         t[k] = torch.where(out, torch.tensor(rng.uniform(lo, hi, M), dtype=torch.float32), t[k])

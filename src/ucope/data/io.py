@@ -186,7 +186,8 @@ def read_intrinsics(path: str | Path) -> np.ndarray:
     """Camera intrinsics ``(fx, fy, cx, cy)`` from a JSON file.
 
     Accepted layouts: ``{"fx":..,"fy":..,"cx":..,"cy":..}``; ``{"K": [[fx,0,cx],[0,fy,cy],[0,0,1]]}`` or
-    its row-wise flat form (BOP's ``cam_K``), also nested under ``"camera"``.
+    its row-wise flat form (BOP's ``cam_K``), also nested under ``"camera"``; a BOP
+    ``scene_camera.json`` (``{"<image id>": {"cam_K": ...}}``) whose images all share one camera.
     """
     path = Path(path)
     try:
@@ -197,6 +198,11 @@ def read_intrinsics(path: str | Path) -> np.ndarray:
         raise DataError(f"{path}: not valid JSON ({e})") from None
     if isinstance(d, dict) and "camera" in d and isinstance(d["camera"], dict):
         d = d["camera"]
+    if isinstance(d, dict) and d and all(isinstance(v, dict) and "cam_K" in v for v in d.values()):  # BOP scene_camera
+        Ks = {json.dumps(v["cam_K"]) for v in d.values()}
+        if len(Ks) > 1:
+            raise DataError(f"{path}: a BOP scene_camera.json with {len(Ks)} different cameras; write the one you need to its own JSON")
+        d = next(iter(d.values()))
     try:
         if all(k in d for k in ("fx", "fy", "cx", "cy")):
             K = np.array([d["fx"], d["fy"], d["cx"], d["cy"]], dtype=np.float64)
