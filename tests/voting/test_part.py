@@ -126,8 +126,9 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
             outs[name].append(h[name])
     outputs = {name: torch.stack(v)[None] for name, v in outs.items()}
     cfg = _config(K, sizes, V)
+    full_surface = VotingOptions(thin_snap_ratio=0.0)  # points on every face: no visible side to snap to
     res = vote_parts(torch.tensor(points, dtype=torch.float32)[None], torch.tensor(normals, dtype=torch.float32)[None],
-                     torch.tensor(pair_idx)[None], outputs, cfg)
+                     torch.tensor(pair_idx)[None], outputs, cfg, options=full_surface)
     assert res["cam_from_part"].shape == (K, 4, 4) and res["size_m"].shape == (K, 3) and len(res["timings_ms"]) == K
     for k in range(K):
         assert np.linalg.norm(res["cam_from_part"][k, :3, 3] - poses[k][:3, 3]) < 0.25 * V[k] / 20
@@ -135,7 +136,7 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
         assert angle_deg(res["cam_from_part"][k, :3, 0], poses[k][:3, 0]) < 0.5
         np.testing.assert_allclose(res["size_m"][k], sizes[k], rtol=0.01)
     # Unbatched inputs work too; wrong shapes are named.
-    res2 = vote_parts(points, normals, pair_idx, {k: v[0] for k, v in outputs.items()}, cfg)
+    res2 = vote_parts(points, normals, pair_idx, {k: v[0] for k, v in outputs.items()}, cfg, options=full_surface)
     np.testing.assert_allclose(res2["cam_from_part"], res["cam_from_part"], atol=1e-6)
     with pytest.raises(InputError, match="mu_logits"):
         vote_parts(points, normals, pair_idx, {**outputs, "mu_logits": outputs["mu_logits"][:, :, :10]}, cfg)
@@ -184,3 +185,24 @@ def test_options_are_used(rng):
                   options=VotingOptions(refine_rotation=False, use_sign_bits=False, max_axis_pairs=500, num_angles=24))
     _check_pose(r, T, size, V, False)
     assert math.isfinite(r.score)
+
+
+def test_thin_parts_snap_to_their_visible_face(rng):
+    """A plate seen from the camera side: a centre that is off along the plate's normal is moved so that
+    the visible points lie on the face towards the camera; thick parts and the arbitrary axes of a
+    y-symmetric part are left alone."""
+    from ucope.voting.part import _snap_thin
+
+    R = torch.tensor(rotation_from_axes(torch.tensor([0.0, 0.6, -0.8]), torch.tensor([1.0, 0.0, 0.0])).numpy())
+    size = np.array([0.30, 0.008, 0.20])  # thin along y
+    centre = torch.tensor([0.05, -0.1, 0.9])
+    n = R[:, 1]
+    side = -1.0 if float(centre @ n) > 0 else 1.0
+    uv = torch.tensor(rng.uniform(-0.5, 0.5, (500, 2)), dtype=torch.float32)
+    face = centre + uv[:, :1] * 0.30 * R[:, 0] + uv[:, 1:] * 0.20 * R[:, 2] + side * 0.004 * n
+    face = face + 0.0005 * torch.randn(500, 3, generator=torch.Generator().manual_seed(0))
+    wrong = centre + 0.012 * n
+    fixed = _snap_thin(wrong, R, size, face, 0.25, False)
+    assert float((fixed - centre).norm()) < 0.001
+    assert torch.equal(_snap_thin(wrong, R, np.array([0.3, 0.1, 0.2]), face, 0.25, False), wrong)  # not thin
+    assert torch.equal(_snap_thin(wrong, R, np.array([0.008, 0.3, 0.2]), face, 0.25, True), wrong)  # symmetric, thin x

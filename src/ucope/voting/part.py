@@ -15,7 +15,10 @@ For part ``k`` (:func:`vote_part`):
    bit), unless the part is symmetric about ``y``.
 5. Rotation: :func:`ucope.voting.rotation.rotation_from_axes` then a joint robust refinement on both
    sets of cones (:func:`ucope.voting.rotation.refine_rotation`).
-6. Size: ``exp(mean gamma over the centre inliers) * mean_size_m`` (equation (8)).
+6. Size: ``exp(mean gamma over the centre inliers) * mean_size_m`` (equation (8)). Beyond the paper, a
+   thin part (a plate: smallest extent below ``thin_snap_ratio`` of the middle one) then has its centre
+   moved along its thin axis so that its visible points lie on the box face towards the camera: the
+   pairs of a plate barely constrain the centre along its normal (docs/voting.md).
 7. Score: ``inlier fraction x mean part-score probability`` of the voting pairs, in ``[0, 1]``: high
    when the pairs agree on a centre and the network is sure they belong to the part; a fallback part
    has a mean probability below the threshold, so it ranks below confident parts.
@@ -68,6 +71,11 @@ class VotingOptions:
         axis_tol_deg: axis inlier tolerance and initial refinement scale (degrees).
         use_sign_bits: use the predicted sign bits to choose the axis signs.
         refine_rotation: jointly refine the rotation on both axes' cones.
+        thin_snap_ratio: surface snap of thin parts (0: off; default 0.25, measured in docs/voting.md). A part whose smallest box extent is below
+            this fraction of its middle one (a plate: laptop lid, scissor blade) has its centre moved
+            along that thin axis so that its visible points lie on the box face towards the camera
+            (the camera is the origin of the points' frame). The pair geometry hardly constrains the
+            centre along the normal of a plate (``nu`` changes only to second order with it).
     """
 
     score_threshold: float = 0.5
@@ -85,6 +93,7 @@ class VotingOptions:
     axis_num_angles: int = 24
     use_sign_bits: bool = True
     refine_rotation: bool = True
+    thin_snap_ratio: float = 0.25
 
 
 @dataclass
@@ -216,6 +225,8 @@ def vote_part(
     # 6. Size and score.
     g = gam[sel[pool]].mean(0)
     size = np.exp(g.double().cpu().numpy()) * mean_size
+    if opt.thin_snap_ratio > 0:
+        centre = _snap_thin(centre, R, size, a[sel[pool]], float(opt.thin_snap_ratio), symmetric)
     score = (n_inl / S) * float(prob[sel].mean())
     T = np.eye(4)
     T[:3, :3] = R.double().cpu().numpy()
@@ -226,6 +237,20 @@ def vote_part(
         cam_from_part=T, size_m=size, score=float(score), num_pairs=S, num_inliers=n_inl, fallback=fallback,
         timings_ms=dict(decode=ms(t0, t1), centre=ms(t1, t2), axes=ms(t2, t3), rotation=ms(t3, t4), size=ms(t4, t5)),
     )
+
+
+def _snap_thin(centre: torch.Tensor, R: torch.Tensor, size: np.ndarray, pts: torch.Tensor, ratio: float, symmetric: bool) -> torch.Tensor:
+    """:attr:`VotingOptions.thin_snap_ratio`: ``centre`` moved along the thin axis of the box so that
+    the median of the part's points ``pts`` ``(P, 3)`` lies on the box face towards the camera. A part
+    symmetric about y is snapped only along y (its x and z axes are arbitrary)."""
+    order = np.argsort(size)
+    k = int(order[0])
+    if not size[k] < ratio * size[order[1]] or len(pts) == 0 or (symmetric and k != 1):
+        return centre
+    n = R[:, k]
+    side = -1.0 if float(centre @ n) > 0 else 1.0  # the face whose outward normal points to the camera
+    offset = float(((pts - centre) @ n).median()) - side * 0.5 * float(size[k])
+    return centre + offset * n
 
 
 def _one(x: torch.Tensor, name: str) -> torch.Tensor:
