@@ -102,3 +102,39 @@ def test_kinematic_refine_keeps_consistent_poses_and_reduces_noise(rng):
             assert r["joint_axis"][j] @ s["joint_axis"][j] > 0.99
         np.testing.assert_allclose(r["joint_pivot"], s["joint_pivot"])
     assert np.mean(after) < 0.9 * np.mean(before)  # measured: 3.0 -> ~2.4 degrees
+
+
+@pytest.mark.parametrize("flip_axis", [(0.0, 1.0, 0.0), (0.0, 0.0, 1.0)])
+def test_half_turn_flips_that_contradict_a_revolute_joint_are_undone(rng, flip_axis):
+    from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
+    from ucope.voting import resolve_joint_flips
+
+    cfg = ModelConfig.for_category("laptop", compute_category_stats(_samples("laptop", "train", 4)))
+    a = np.asarray(cfg.joint_axes_in_parent[0])
+    Rp = random_rotation(rng)
+    Rc = Rp @ rotation_about_axis(a, 1.2)
+    T = np.stack([make_transform(Rp, [0, 0, 1.0]), make_transform(Rc, [0, 0.1, 1.0])])
+    u = Rp @ a  # the joint heads' axis
+    flipped = T.copy()
+    flipped[1, :3, :3] = Rc @ rotation_about_axis(np.array(flip_axis), np.pi)
+    fixed, which = resolve_joint_flips(flipped, u[None], cfg)
+    assert which.tolist() == [False, True]
+    np.testing.assert_allclose(fixed[1, :3, :3], Rc, atol=1e-9)
+    np.testing.assert_allclose(fixed[1, :3, 3], T[1, :3, 3])
+    # Consistent poses, or both parts against the joint heads' axis, are left alone.
+    same, which = resolve_joint_flips(T, u[None], cfg)
+    assert not which.any() and np.array_equal(same, T)
+    _, which = resolve_joint_flips(T, -u[None], cfg)
+    assert not which.any()
+    # The parent is the flipped one: it is turned back, the child stays.
+    bad_parent = T.copy()
+    bad_parent[0, :3, :3] = Rp @ rotation_about_axis(np.array(flip_axis), np.pi)
+    fixed, which = resolve_joint_flips(bad_parent, u[None], cfg)
+    assert which.tolist() == [True, False]
+    np.testing.assert_allclose(fixed[0, :3, :3], Rp, atol=1e-9)
+    # A half turn of the child about the hinge itself puts the angle outside the limits: undone too.
+    about_hinge = T.copy()
+    about_hinge[1, :3, :3] = Rc @ rotation_about_axis(a, np.pi)
+    fixed, which = resolve_joint_flips(about_hinge, u[None], cfg)
+    assert which.tolist() == [False, True]
+    np.testing.assert_allclose(fixed[1, :3, :3], Rc, atol=1e-9)

@@ -164,7 +164,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 def _estimator(args: argparse.Namespace):
     from ..voting.estimator import Estimator
 
-    return Estimator.load(args.model, num_pairs=args.pairs, awareness=not args.no_awareness, refine=args.refine, seed=args.seed)
+    return Estimator.load(args.model, num_pairs=args.pairs, awareness=not args.no_awareness, refine=args.refine, seed=args.seed,
+                          resolve_flips=not args.keep_flips)
 
 
 def _expand_inputs(spec: str) -> list[Path]:
@@ -373,6 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
     pr.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
     pr.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
+    pr.add_argument("--keep-flips", action="store_true", help="do not turn back parts whose rotation contradicts their revolute joint (ablation)")
     pr.add_argument("--seed", type=int, default=0)
     pr.add_argument("--quiet", action="store_true", help="no progress bar")
     pr.set_defaults(func=cmd_predict)
@@ -389,6 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
     ev.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
     ev.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
+    ev.add_argument("--keep-flips", action="store_true", help="do not turn back parts whose rotation contradicts their revolute joint (ablation)")
     ev.add_argument("--seed", type=int, default=0)
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=cmd_eval)

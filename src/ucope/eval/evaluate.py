@@ -180,7 +180,7 @@ def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_
         "part_names": list(cfg.part_names),
         "part_symmetry": list(cfg.part_symmetry),
         "settings": {"num_pairs": estimator.num_pairs, "awareness": estimator.awareness,
-                     "refine": estimator.refine, "seed": estimator.seed},
+                     "refine": estimator.refine, "resolve_flips": getattr(estimator, "resolve_flips", False), "seed": estimator.seed},
         "data": dict(data_info or {}, num_samples=n),
         "parts": summarize_parts([e["parts"] for e in records]),
         "joints": summarize_joints([e["joints"] for e in records]) if cfg.num_joints else None,

@@ -119,13 +119,17 @@ class Estimator:
         awareness: part awareness (only pairs with part score > 0.5 vote for a part, pairs drawn from
             the segmented part) and joint awareness (only points with joint score and heatmap > 0.5
             locate a joint); ``False`` for the ablation.
-        refine: the kinematic refinement (off by default: see docs/voting.md for its measured effect).
+        refine: the kinematic refinement (off by default: see docs/results.md for its measured effect).
+        resolve_flips: turn back parts whose rotation is a half turn away from what their revolute
+            joint allows (:func:`ucope.voting.kinematic.resolve_joint_flips`; on by default, measured in
+            docs/results.md).
         seed: seed of the subsampling and pair draws.
         device: torch device of the network.
     """
 
     def __init__(self, model: UCOPENet, name: str = "", num_pairs: int = 20000, awareness: bool = True,
-                 refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096):
+                 refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096,
+                 resolve_flips: bool = True):
         if int(num_pairs) < 10:
             raise InputError(f"num_pairs must be at least 10, got {num_pairs}")
         self.model = model.to(device).eval()
@@ -134,6 +138,7 @@ class Estimator:
         self.num_pairs = int(num_pairs)
         self.awareness = bool(awareness)
         self.refine = bool(refine)
+        self.resolve_flips = bool(resolve_flips)
         self.seed = int(seed)
         self.device = torch.device(device)
         self.max_input_points = int(max_input_points)
@@ -194,9 +199,10 @@ class Estimator:
                 out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device)))
         t3 = time.perf_counter()
         if cfg.head == "regression":
-            v = regressed_object(p_net, out, cfg, awareness=self.awareness, refine=self.refine)
+            v = regressed_object(p_net, out, cfg, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips)
         else:
-            v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine)
+            v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine,
+                            resolve_flips=self.resolve_flips)
         parts, joints = self._estimates(v)
         t4 = time.perf_counter()
         all_labels = label_points(raw, finite, p_net, labels)

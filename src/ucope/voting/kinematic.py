@@ -30,6 +30,8 @@ the part votes, and is measured on real predictions elsewhere (docs/voting.md).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import InputError
@@ -37,7 +39,7 @@ from ..geometry.kinematics import joint_state_from_poses, revolute_angle
 from ..geometry.transforms import rotation_about_axis
 from ..model.config import ModelConfig
 
-__all__ = ["kinematic_refine", "canonical_joint_axes"]
+__all__ = ["kinematic_refine", "canonical_joint_axes", "resolve_joint_flips"]
 
 
 def canonical_joint_axes(cfg: ModelConfig) -> np.ndarray:
@@ -52,6 +54,80 @@ def canonical_joint_axes(cfg: ModelConfig) -> np.ndarray:
     if ax.shape != (cfg.num_joints, 3):
         raise InputError(f"the configuration has {cfg.num_joints} joints but {len(ax)} canonical axes")
     return ax / np.linalg.norm(ax, axis=-1, keepdims=True)
+
+
+@functools.lru_cache(maxsize=32)
+def _generator_limits(category: str) -> tuple[tuple[float, float], ...]:
+    from ..objects.categories import make_instance
+
+    return tuple((float(j.limits[0]), float(j.limits[1])) for j in make_instance(category, "train", 0).joints)
+
+
+def _range_distance(q: float, lo: float, hi: float) -> float:
+    """How far the angle ``q`` (any turn) lies outside ``[lo, hi]`` (0 inside), radians."""
+    q = (q - lo) % (2 * np.pi) + lo  # into [lo, lo + 2 pi)
+    return 0.0 if q <= hi else min(q - hi, lo + 2 * np.pi - q)
+
+
+def resolve_joint_flips(cam_from_part: np.ndarray, joint_axis: np.ndarray, cfg: ModelConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Undo half-turn flips of part rotations that contradict a revolute joint.
+
+    A box is unchanged by a half turn about any of its own axes, so the votes of a plate-like part (a
+    laptop lid, a temple) can land on such a flip of the truth. A revolute joint ``j`` (canonical axis
+    ``a_j`` in the parent frame) tells two kinds apart:
+
+    * a half turn about an axis perpendicular to ``a_j``: then ``R_p a_j . R_c a_j < 0`` (the joint
+      turns the child about ``a_j``, so both are the joint axis). The joint heads give the signed axis
+      ``u_j`` independently of the part votes; the part that disagrees with ``u_j`` while the other
+      agrees is turned by a half turn about whichever of its canonical axes perpendicular to ``a_j``
+      puts the joint angle inside the joint's limits (else the closer to them);
+    * a half turn about ``a_j`` itself: the relative rotation is still about ``a_j`` but its angle is
+      off by pi; if the angle lies outside the joint's limits and ``angle + pi`` is closer to them, the
+      child is turned by a half turn about ``a_j``.
+
+    The limits are the category generator's. Joints are visited parent first; prismatic joints are
+    left alone.
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` voted poses; joint_axis: ``(J, 3)`` the joint heads' axes (camera).
+        cfg: the model configuration (joint tree and canonical axes).
+
+    Returns:
+        ``(cam_from_part, flipped)``: corrected poses (a copy) and ``(K,)`` bool, the parts turned.
+    """
+    from ..geometry.kinematics import revolute_angle
+
+    T = np.array(cam_from_part, dtype=np.float64)
+    K = T.shape[0]
+    flipped = np.zeros(K, dtype=bool)
+    axes = canonical_joint_axes(cfg)
+    limits = _generator_limits(cfg.category)
+    basis = np.eye(3)
+    for j in range(cfg.num_joints):  # a handful of joints, parents before children in every category
+        if cfg.joint_types[j] != 0:
+            continue
+        p, c, a = cfg.joint_parents[j], cfg.joint_children[j], axes[j]
+        u = np.asarray(joint_axis[j], dtype=np.float64)
+        if not np.all(np.isfinite(u)):
+            u = np.zeros(3)
+        sp, sc = float(T[p, :3, :3] @ a @ u), float(T[c, :3, :3] @ a @ u)
+        if sp * sc < 0:
+            k = c if sp > 0 else p
+            best = None
+            for b in basis[np.argsort(np.abs(basis @ a))[:2]]:  # the two canonical axes most perpendicular to a
+                R = T[k, :3, :3] @ rotation_about_axis(b, np.pi)
+                rel = T[p, :3, :3].T @ R if k == c else R.T @ T[c, :3, :3]
+                q = float(revolute_angle(rel, a))
+                key = (round(_range_distance(q, *limits[j]), 6), float(np.linalg.norm(rel - rotation_about_axis(a, q))))
+                if best is None or key < best[0]:
+                    best = (key, R)
+            T[k, :3, :3] = best[1]
+            flipped[k] = True
+        q = float(revolute_angle(T[p, :3, :3].T @ T[c, :3, :3], a))
+        if _range_distance(q + np.pi, *limits[j]) < _range_distance(q, *limits[j]):
+            T[c, :3, :3] = T[c, :3, :3] @ rotation_about_axis(a, np.pi)
+            flipped[c] = True
+    return T, flipped
 
 
 def _procrustes(M: np.ndarray) -> np.ndarray:

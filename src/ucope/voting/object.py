@@ -9,7 +9,7 @@ import numpy as np
 from ..geometry.kinematics import joint_state_from_poses
 from ..model.config import ModelConfig
 from .joints import vote_joints
-from .kinematic import kinematic_refine
+from .kinematic import kinematic_refine, resolve_joint_flips
 from .part import VotingOptions, vote_parts
 
 __all__ = ["vote_object", "regressed_object"]
@@ -24,9 +24,12 @@ def vote_object(
     awareness: bool = True,
     refine: bool = False,
     options: VotingOptions | None = None,
+    resolve_flips: bool = True,
 ) -> dict[str, Any]:
     """:func:`ucope.voting.part.vote_parts` + :func:`ucope.voting.joints.vote_joints` + joint states.
 
+    With ``resolve_flips`` (default) a part whose voted rotation is a half turn away from what its
+    revolute joint allows is turned back first (:func:`ucope.voting.kinematic.resolve_joint_flips`).
     Joint states come from the voted poses (:func:`ucope.geometry.kinematics.joint_state_from_poses`)
     about the voted joint axis (revolute), or from the box supports minus
     ``cfg.stats.joint_zero_offset_m`` (prismatic; 0 when the statistics predate it). With
@@ -38,13 +41,15 @@ def vote_object(
 
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
-        ``(J,)``; ``refined`` tells whether the kinematic refinement ran.
+        ``(J,)``; ``flipped`` ``(K,)`` bool marks the parts turned back; ``refined`` tells whether the
+        kinematic refinement ran.
     """
     out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options)
-    return _with_joints(out, points, outputs, cfg, awareness, refine)
+    return _with_joints(out, points, outputs, cfg, awareness, refine, resolve_flips)
 
 
-def regressed_object(points, outputs: Mapping[str, Any], cfg: ModelConfig, awareness: bool = True, refine: bool = False) -> dict[str, Any]:
+def regressed_object(points, outputs: Mapping[str, Any], cfg: ModelConfig, awareness: bool = True, refine: bool = False,
+                     resolve_flips: bool = True) -> dict[str, Any]:
     """The same dict as :func:`vote_object` for the direct-regression baseline
     (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
     ``(1, K, 3, 3)``, ``centre_m`` ``(1, K, 3)`` and ``gamma`` ``(1, K, 3)`` outputs (score 1, no
@@ -57,13 +62,17 @@ def regressed_object(points, outputs: Mapping[str, Any], cfg: ModelConfig, aware
     T[:, :3, :3], T[:, :3, 3] = R, t
     out = {"cam_from_part": T, "size_m": np.exp(gamma) * np.asarray(cfg.stats.mean_size_m, np.float64),
            "score": np.ones(K), "num_pairs": np.zeros(K, dtype=np.int64)}
-    return _with_joints(out, points, outputs, cfg, awareness, refine)
+    return _with_joints(out, points, outputs, cfg, awareness, refine, resolve_flips)
 
 
-def _with_joints(out: dict, points, outputs, cfg: ModelConfig, awareness: bool, refine: bool) -> dict[str, Any]:
-    """Add the joints (:func:`vote_joints`), the joint states and the optional refinement to ``out``."""
+def _with_joints(out: dict, points, outputs, cfg: ModelConfig, awareness: bool, refine: bool, resolve_flips: bool = True) -> dict[str, Any]:
+    """Add the joints (:func:`vote_joints`), undo half-turn flips that contradict them
+    (:func:`resolve_joint_flips`), then the joint states and the optional refinement."""
     out.update(vote_joints(points, outputs, cfg, awareness=awareness))
     J = cfg.num_joints
+    out["flipped"] = np.zeros(cfg.num_parts, dtype=bool)
+    if resolve_flips and J > 0:
+        out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], cfg)
     T, S = out["cam_from_part"], out["size_m"]
     zero = cfg.stats.joint_zero_offset_m or (0.0,) * J
     state = np.zeros(J)
