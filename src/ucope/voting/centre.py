@@ -306,8 +306,8 @@ def _vote_centre(
         h = float((c - m[:, 0]) @ n)
         if abs(h) > tol_min:
             c2 = _refine_centre(c - 2.0 * h * n, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
-            s1 = float((wr * (circle_distance(c, fr, er, nur) < tol0)).sum())
-            s2 = float((wr * (circle_distance(c2, fr, er, nur) < tol0)).sum())
+            s1 = float((w * (circle_distance(c, f, e, nu) < tol0)).sum())  # support among all voting pairs
+            s2 = float((w * (circle_distance(c2, f, e, nu) < tol0)).sum())
             if s2 > s1 / mirror_ratio:
                 c = c2
             elif s2 >= mirror_ratio * s1:  # ambiguous: the candidate farther behind the surface

@@ -85,8 +85,8 @@ class VotingOptions:
     num_angles: int = 36
     centre_inlier_cells: float = 2.0
     max_grid_pairs: int = 4096
-    max_refine_pairs: int = 4096
-    max_axis_pairs: int = 4096
+    max_refine_pairs: int = 1024
+    max_axis_pairs: int = 1024
     axis_grid: int = 32
     axis_tol_deg: float = 5.0
     max_coarse_pairs: int = 1024
