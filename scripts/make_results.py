@@ -236,6 +236,14 @@ def main() -> int:
                            f"| {cells(p['iou']['mean'], '{:.1f}', 100)} | {cells(j['axis_deg']['mean'], '{:.1f}')} | {st} |")
         out.append("")
 
+    # ----------------------------------------------------------------------------- training curves
+    curves = [c for c in ("laptop", "mug") if (args.out.parent / "images" / f"training_{c}.png").is_file()]
+    if curves:
+        out += ["## Training curves", "",
+                "Training (thin) and held-out validation (markers) losses and errors of the shipped laptop and mug models, "
+                "drawn by `python scripts/plot_training.py RUN --out PNG` from the runs' `metrics.jsonl`:", ""]
+        out += [f"![{c} training](images/training_{c}.png)" for c in curves] + [""]
+
     # --------------------------------------------------------------------------------------- speed
     bp, bt = args.bench / "results_predict.json", args.bench / "results_train.json"
     if bp.is_file() or bt.is_file():
