@@ -170,3 +170,13 @@ def test_cli_predict_rgbd_and_errors(tiny_run, tmp_path, capsys):
     assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path / "broken.ply"), "--out", str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err
     assert "broken.ply" in err and "Traceback" not in err
+
+
+def test_shipped_name_is_not_hidden_by_a_folder_of_that_name(tmp_path, monkeypatch):
+    from ucope.voting.estimator import list_pretrained
+
+    assert "laptop" in list_pretrained()
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "laptop").mkdir()  # e.g. a data folder
+    est = Estimator.load("laptop")
+    assert est.name == "laptop" and est.category == "laptop"

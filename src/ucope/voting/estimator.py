@@ -149,10 +149,12 @@ class Estimator:
         """An estimator from a run folder / model JSON path, or the name of a shipped model
         (``Estimator.load("laptop")``; :func:`list_pretrained` lists them)."""
         p = Path(model)
-        if p.exists():
+        shipped = pretrained_dir() / f"{model}.json"
+        # A path wins, unless it is a folder without a model in it and a shipped model has that name
+        # (a data folder called "laptop" next to you does not hide the shipped laptop model).
+        if p.exists() and not (p.is_dir() and not (p / "model.json").is_file() and shipped.is_file()):
             net, meta = load_model(p)
             return cls(net, name=str(p), **kwargs)
-        shipped = pretrained_dir() / f"{model}.json"
         if shipped.is_file():
             net, meta = load_model(shipped)
             return cls(net, name=str(model), **kwargs)
