@@ -33,6 +33,19 @@ def tiny_batch(cfg: ModelConfig, n: int = 4, seed: int = 0) -> dict:
     return collate_items([items[i] for i in range(n)])
 
 
+def overfit(net, batch: dict, steps: int, lr: float = 3e-3) -> tuple[dict, dict]:
+    """Adam on one batch for ``steps`` steps; the logs of the first and the last step."""
+    opt = torch.optim.Adam(net.parameters(), lr=lr)
+    first = None
+    for _ in range(steps):
+        loss, logs = net.compute_loss(batch)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        first = logs if first is None else first
+    return first, logs
+
+
 @pytest.mark.parametrize("category, K", [("mug", 1), ("laptop", 2), ("eyeglasses", 3), ("drawer", 4)])
 def test_output_shapes(category, K):
     torch.manual_seed(0)
@@ -118,14 +131,7 @@ def test_tiny_model_overfits_tiny_data(category):
     cfg = tiny_config(category)
     net = UCOPENet(cfg)
     b = tiny_batch(cfg, n=4)
-    opt = torch.optim.Adam(net.parameters(), lr=3e-3)
-    first = None
-    for _ in range(200):
-        loss, logs = net.compute_loss(b)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-        first = logs if first is None else first
+    first, logs = overfit(net, b, 200)
     assert logs["loss"] < 0.6 * first["loss"], (first["loss"], logs["loss"])
     assert logs["mu"] < 0.7 * first["mu"]
     assert logs["mu_err_m"] < first["mu_err_m"]

@@ -5,7 +5,7 @@ import math
 import pytest
 import torch
 
-from test_network import tiny_batch, tiny_config
+from test_network import overfit, tiny_batch, tiny_config
 from ucope.errors import InputError
 from ucope.model.checkpoint import load_model, save_model
 from ucope.model.network import UCOPENet, build_model
@@ -52,13 +52,7 @@ def test_gradients_reach_every_parameter_and_the_loss_falls(category):
     for name, p in net.named_parameters():
         assert p.grad is not None and p.grad.abs().sum() > 0, name
     assert {"rot", "trans", "gamma", "rot_err_deg", "trans_err_m"} <= set(logs)
-    opt = torch.optim.Adam(net.parameters(), lr=3e-3)
-    first = logs
-    for _ in range(150):
-        loss, logs = net.compute_loss(b)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
+    first, logs = overfit(net, b, 150)
     assert logs["loss"] < 0.5 * first["loss"], (first["loss"], logs["loss"])
     assert logs["rot_err_deg"] < first["rot_err_deg"]
 

@@ -289,6 +289,16 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _estimator_options(p: argparse.ArgumentParser) -> None:
+    """The options of :func:`_estimator` (shared by predict and eval)."""
+    p.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
+    p.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
+    p.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
+    p.add_argument("--keep-flips", action="store_true", help="do not turn back parts whose rotation contradicts their revolute joint (ablation)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..objects.categories import CATEGORY_NAMES
 
@@ -371,12 +381,7 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es) with --data (default 0)")
     pr.add_argument("--out", required=True, help="result JSON (a folder when there are several inputs)")
     pr.add_argument("--vis", default=None, help="also draw the estimates into this PNG")
-    pr.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
-    pr.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
-    pr.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
-    pr.add_argument("--keep-flips", action="store_true", help="do not turn back parts whose rotation contradicts their revolute joint (ablation)")
-    pr.add_argument("--seed", type=int, default=0)
-    pr.add_argument("--quiet", action="store_true", help="no progress bar")
+    _estimator_options(pr)
     pr.set_defaults(func=cmd_predict)
 
     mo = sub.add_parser("models", help="list the models shipped inside the package, with their test-split figures")
@@ -388,12 +393,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--data", required=True, help="data set folder (e.g. from `ucope generate --split test`)")
     ev.add_argument("--out", required=True, help="report JSON to write")
     ev.add_argument("--num", type=int, default=None, help="evaluate only the first NUM samples")
-    ev.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
-    ev.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
-    ev.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
-    ev.add_argument("--keep-flips", action="store_true", help="do not turn back parts whose rotation contradicts their revolute joint (ablation)")
-    ev.add_argument("--seed", type=int, default=0)
-    ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    _estimator_options(ev)
     ev.set_defaults(func=cmd_eval)
 
     d = sub.add_parser("demo", help="run the shipped models on unseen test views, print errors against the ground truth, draw them")
