@@ -138,3 +138,26 @@ def test_half_turn_flips_that_contradict_a_revolute_joint_are_undone(rng, flip_a
     fixed, which = resolve_joint_flips(about_hinge, u[None], cfg)
     assert which.tolist() == [False, True]
     np.testing.assert_allclose(fixed[1, :3, :3], Rc, atol=1e-9)
+
+
+def test_a_front_turned_about_its_hinge_axis_is_turned_back_by_the_temples_placement(rng):
+    """Eyeglasses: a front rotated half a turn about y (the hinge axis: its box maps onto itself) has
+    the temples in front of it; the placement check turns it back, and leaves correct poses alone."""
+    from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
+    from ucope.objects.categories import make_instance
+    from ucope.voting import resolve_joint_flips
+
+    cfg = ModelConfig.for_category("eyeglasses", compute_category_stats(_samples("eyeglasses", "train", 4)))
+    obj = make_instance("eyeglasses", "test", 3)
+    cam_from_object = make_transform(random_rotation(rng), [0.0, 0.0, 0.6])
+    T = cam_from_object @ obj.object_from_part(obj.rest_state)
+    axis = T[0, :3, :3] @ np.asarray(cfg.joint_axes_in_parent)[:, :, None]  # (J, 3, 1)
+    u = axis[..., 0]
+    same, which = resolve_joint_flips(T, u, cfg, obj.size_m)
+    assert not which.any()
+    np.testing.assert_allclose(same, T)
+    bad = T.copy()
+    bad[0, :3, :3] = T[0, :3, :3] @ rotation_about_axis(np.array([0.0, 1.0, 0.0]), np.pi)
+    fixed, which = resolve_joint_flips(bad, u, cfg, obj.size_m)
+    assert which.tolist() == [True, False, False]
+    np.testing.assert_allclose(fixed[0, :3, :3], T[0, :3, :3], atol=1e-9)

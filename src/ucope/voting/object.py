@@ -72,7 +72,7 @@ def _with_joints(out: dict, points, outputs, cfg: ModelConfig, awareness: bool, 
     J = cfg.num_joints
     out["flipped"] = np.zeros(cfg.num_parts, dtype=bool)
     if resolve_flips and J > 0:
-        out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], cfg)
+        out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], cfg, out["size_m"])
     T, S = out["cam_from_part"], out["size_m"]
     zero = cfg.stats.joint_zero_offset_m or (0.0,) * J
     state = np.zeros(J)
