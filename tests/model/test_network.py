@@ -207,3 +207,18 @@ def test_bad_input_shapes():
         net(pts, torch.zeros(1, 300, 2))
     with pytest.raises(InputError, match="pair_idx"):
         net(torch.randn(1, 300, 3), torch.randn(1, 300, 3), torch.zeros(1, 2, 5, 2, dtype=torch.long))
+
+
+def test_segmentation_weighting_over_points_is_k_times_the_mean_cross_entropy():
+    torch.manual_seed(0)
+    cfg = tiny_config("drawer", seg_weighting="points")
+    net = UCOPENet(cfg)
+    b = tiny_batch(cfg, n=2)
+    out = net(b["points"], b["normals"], b["pair_idx"], b["fps_idx"])
+    seg = net._seg_loss(out, b, {})
+    ce = torch.nn.functional.cross_entropy(out["seg_logits"].reshape(-1, 4), b["part_labels"].reshape(-1))
+    torch.testing.assert_close(seg, 4 * ce)
+    balanced = UCOPENet(tiny_config("drawer"))._seg_loss(out, b, {})
+    assert not torch.isclose(balanced, seg)  # a different weighting of the same logits
+    with pytest.raises(InputError, match="seg_weighting"):
+        tiny_config("drawer", seg_weighting="parts")

@@ -145,6 +145,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         overrides["pairs_per_part"] = args.pairs_per_part
     if args.head != "voting":
         overrides["head"] = args.head
+    for name in ("seg_weighting", "lambda_seg", "lambda_joint", "lambda_pose"):
+        if getattr(args, name) is not None:
+            overrides[name] = getattr(args, name)
     tc = TrainConfig(
         category=args.category, out=args.out, data=args.data, val_data=args.val_data, on_the_fly=args.on_the_fly,
         steps=args.steps, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, lr_step_epochs=args.lr_step_epochs,
@@ -350,6 +353,11 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--lr-step-epochs", type=float, default=10.0, help="multiply the lr by --lr-gamma every this many epochs (default 10)")
     t.add_argument("--lr-gamma", type=float, default=0.1)
     t.add_argument("--pairs-per-part", type=int, default=None, help="point pairs per part per item (default 512)")
+    t.add_argument("--seg-weighting", choices=["balanced", "points"], default=None,
+                   help="segmentation cross-entropy: balanced over parts (default) or over points (better for look-alike parts)")
+    t.add_argument("--lambda-seg", type=float, default=None, help="weight of the segmentation loss in eq. (7) (default 0.2)")
+    t.add_argument("--lambda-joint", type=float, default=None, help="weight of the joint loss (default 0.2)")
+    t.add_argument("--lambda-pose", type=float, default=None, help="weight of the pose loss (default 0.6)")
     t.add_argument("--head", choices=["voting", "regression"], default="voting",
                    help="voting: U-COPE (default); regression: the direct-regression baseline (same encoder, masks and joint heads)")
     t.add_argument("--seed", type=int, default=0, help="seed of the weights, sample order and draws")

@@ -164,6 +164,8 @@ class ModelConfig:
             (the category's, from :func:`ucope.objects.categories.make_instance`); used by the
             kinematic refinement. ``()`` for configurations saved before it existed.
         lambda_joint, lambda_seg, lambda_pose: the loss weights of equation (7).
+        seg_weighting: the segmentation cross-entropy: ``"balanced"`` (each part's points weigh as
+            much as any other part's) or ``"points"`` (every point alike).
         head: ``"voting"`` (U-COPE: the pair encoder and voting) or ``"regression"`` (the baseline
             of :mod:`ucope.model.regression`: the same network with poses regressed directly).
     """
@@ -188,6 +190,7 @@ class ModelConfig:
     lambda_pose: float = 0.6
     joint_axes_in_parent: tuple = ()
     head: str = "voting"
+    seg_weighting: str = "balanced"
     version: int = MODEL_CONFIG_VERSION
 
     def __post_init__(self) -> None:
@@ -201,6 +204,8 @@ class ModelConfig:
             raise InputError(f"a {K}-part model needs {K - 1} joints with a parent and a child each")
         if any(t not in (0, 1) for t in self.joint_types):
             raise InputError(f"joint types must be 0 (revolute) or 1 (prismatic), got {self.joint_types}")
+        if self.seg_weighting not in ("balanced", "points"):
+            raise InputError(f"seg_weighting must be 'balanced' or 'points', got {self.seg_weighting!r}")
         if self.head not in HEADS:
             raise InputError(f"head must be one of {HEADS}, got {self.head!r}")
         if any(s not in ("none", "y") for s in self.part_symmetry):

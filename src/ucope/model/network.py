@@ -220,12 +220,16 @@ class UCOPENet(nn.Module):
         return total, logs
 
     def _seg_loss(self, out, batch, logs) -> torch.Tensor:
-        """Sum over parts of the mean cross-entropy of that part's points (class-balanced)."""
+        """``cfg.seg_weighting``: ``"balanced"``, the sum over parts of the mean cross-entropy of that
+        part's points; ``"points"``, K x the mean cross-entropy over all points (the same scale)."""
         K = self.cfg.num_parts
         logits, labels = out["seg_logits"], batch["part_labels"]
         ce = F.cross_entropy(logits.reshape(-1, K), labels.reshape(-1), reduction="none")
-        onehot = F.one_hot(labels.reshape(-1), K).to(ce.dtype)  # (BN, K)
-        per_part = (onehot * ce[:, None]).sum(0) / onehot.sum(0).clamp_min(1.0)
+        if self.cfg.seg_weighting == "points":
+            per_part = ce.mean().expand(K)
+        else:
+            onehot = F.one_hot(labels.reshape(-1), K).to(ce.dtype)  # (BN, K)
+            per_part = (onehot * ce[:, None]).sum(0) / onehot.sum(0).clamp_min(1.0)
         with torch.no_grad():
             logs["seg_acc"] = float((logits.argmax(-1) == labels).float().mean())
         return per_part.sum()
