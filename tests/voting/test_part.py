@@ -69,6 +69,19 @@ def test_degenerate_inputs_do_not_crash(rng):
     assert np.all(np.isfinite(r.cam_from_part)) and r.fallback
 
 
+def test_up_and_right_voted_onto_one_direction_still_give_a_rotation(rng):
+    """Garbage votes can put both axes on one direction (seen on a trained eyeglasses model); the part
+    keeps its up axis and gets a proper rotation instead of an error from deep inside."""
+    T, size = random_part(rng)
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 2000)
+    h["beta_logits"] = h["alpha_logits"].clone()  # the right axis votes exactly like the up axis
+    h["sign_logits"] = torch.stack([h["sign_logits"][:, 0]] * 2, -1)
+    r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    R = r.cam_from_part[:3, :3]
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-6)
+    assert np.linalg.det(R) > 0 and angle_deg(R[:, 1], T[:3, 1]) < 2.0
+
+
 def test_bad_inputs_raise_input_errors(rng):
     T, size = random_part(rng)
     a, b, n, h, V = synthetic_heads(rng, T, size, size, 50)

@@ -216,7 +216,10 @@ def vote_part(
         right, _ = _vote_axis(e_ax, beta, ones, *axis_args)
         right, _ = _choose_sign(right, e_ax, beta, n_ax, sg_l[gi, 1], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
     t3 = time.perf_counter()
-    # 5. Rotation.
+    # 5. Rotation. Both axes voted onto (nearly) one direction happens on garbage votes: take y alone
+    # then (x any perpendicular) and let the refinement find x on the beta cones.
+    if right is not None and float(torch.linalg.cross(up / up.norm(), right / right.norm()).norm()) < 1e-3:
+        right = None
     R = rotation_from_axes(up, right)
     if opt.refine_rotation:
         terms = [(1, e_ax, alpha, ones)] + ([] if symmetric else [(0, e_ax, beta, ones)])
