@@ -96,7 +96,8 @@ def training_line(rep: dict | None) -> str:
         return ""
     hw = c.get("hardware") or {}
     dev = hw.get("device", "?")
-    where = f"{hw.get('torch_threads', '?')} CPU threads" if dev == "cpu" else dev
+    n = hw.get("torch_threads", "?")
+    where = f"{n} CPU thread{'' if n == 1 else 's'}" if dev == "cpu" else dev
     return f"{c['steps']} steps of batch {c['batch_size']} in {c['train_time_s'] / 60:.1f} min on {where}"
 
 
