@@ -69,7 +69,8 @@ def paper_row(row: tuple, label: str = "U-COPE, paper (ArtImage, GPU)") -> str:
 
 def training_info(card: dict) -> dict:
     """What the page says about a model's training, from its model card."""
-    return {k: card.get(k) for k in ("steps", "batch_size", "train_time_s", "world_size", "model_size", "head", "hardware")}
+    return {k: card.get(k) for k in ("steps", "batch_size", "train_time_s", "world_size", "model_size", "head", "hardware",
+                                     "stopped_early")}
 
 
 def save_reports(src: Path, dest: Path, runs: Path | None) -> None:
@@ -98,7 +99,8 @@ def training_line(rep: dict | None) -> str:
     dev = hw.get("device", "?")
     n = hw.get("torch_threads", "?")
     where = f"{n} CPU thread{'' if n == 1 else 's'}" if dev == "cpu" else dev
-    return f"{c['steps']} steps of batch {c['batch_size']} in {c['train_time_s'] / 60:.1f} min on {where}"
+    early = f" (stopped early: {c['stopped_early']})" if c.get("stopped_early") else ""
+    return f"{c['steps']} steps of batch {c['batch_size']} in {c['train_time_s'] / 60:.1f} min on {where}{early}"
 
 
 def command(rep: dict) -> str:
