@@ -20,7 +20,7 @@ from .centre import circle_distance, vote_centre
 from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
 from .part import PartVote, VotingOptions, vote_part, vote_parts
 from .joints import JointVote, joint_from_points, vote_joints
-from .kinematic import kinematic_refine, resolve_joint_flips
+from .kinematic import kinematic_refine, resolve_joint_flips, resolve_shape_flips
 from .object import vote_object
 
 __all__ = [
@@ -42,5 +42,6 @@ __all__ = [
     "vote_joints",
     "kinematic_refine",
     "resolve_joint_flips",
+    "resolve_shape_flips",
     "vote_object",
 ]

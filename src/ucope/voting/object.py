@@ -9,7 +9,7 @@ import numpy as np
 from ..geometry.kinematics import joint_state_from_poses
 from ..model.config import ModelConfig
 from .joints import vote_joints
-from .kinematic import kinematic_refine, resolve_joint_flips
+from .kinematic import kinematic_refine, resolve_joint_flips, resolve_shape_flips
 from .part import VotingOptions, vote_parts
 
 __all__ = ["vote_object", "regressed_object"]
@@ -25,11 +25,16 @@ def vote_object(
     refine: bool = False,
     options: VotingOptions | None = None,
     resolve_flips: bool = True,
+    shape_flips: bool = True,
 ) -> dict[str, Any]:
     """:func:`ucope.voting.part.vote_parts` + :func:`ucope.voting.joints.vote_joints` + joint states.
 
-    With ``resolve_flips`` (default) a part whose voted rotation is a half turn away from what its
-    revolute joint allows is turned back first (:func:`ucope.voting.kinematic.resolve_joint_flips`).
+    With ``resolve_flips`` (default) a rigid object (``K = 1``) whose voted rotation is a half turn away
+    from the pose its points fit best is turned back (``shape_flips``,
+    :func:`ucope.voting.kinematic.resolve_shape_flips`), and a part of an articulated object whose
+    rotation is a half turn away from what its revolute joint allows is turned back
+    (:func:`ucope.voting.kinematic.resolve_joint_flips`; the shape check is not used there: measured,
+    it made the laptop's parts slightly worse).
     Joint states come from the voted poses (:func:`ucope.geometry.kinematics.joint_state_from_poses`)
     about the voted joint axis (revolute), or from the box supports minus
     ``cfg.stats.joint_zero_offset_m`` (prismatic; 0 when the statistics predate it). With
@@ -41,10 +46,17 @@ def vote_object(
 
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
-        ``(J,)``; ``flipped`` ``(K,)`` bool marks the parts turned back; ``refined`` tells whether the
+        ``(J,)``; ``flipped`` ``(K,)`` bool marks the parts turned back by the joint checks and
+        ``shape_turned`` ``(K,)`` those turned by the shape check; ``refined`` tells whether the
         kinematic refinement ran.
     """
     out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options)
+    if resolve_flips and shape_flips and cfg.num_joints == 0:
+        idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx)
+        idx = idx.reshape(cfg.num_parts, -1)
+        pts = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64)
+        out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(out["cam_from_part"], out["size_m"], pts,
+                                                                        [np.unique(i) for i in idx], cfg)
     return _with_joints(out, points, outputs, cfg, awareness, refine, resolve_flips)
 
 
