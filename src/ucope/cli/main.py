@@ -297,7 +297,7 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
     p.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
     p.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
-    p.add_argument("--keep-flips", action="store_true", help="do not turn back parts whose rotation contradicts their revolute joint (ablation)")
+    p.add_argument("--keep-flips", action="store_true", help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 

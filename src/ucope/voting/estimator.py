@@ -121,8 +121,10 @@ class Estimator:
             locate a joint); ``False`` for the ablation.
         refine: the kinematic refinement (off by default: see docs/results.md for its measured effect).
         resolve_flips: turn back parts whose rotation is a half turn away from what their revolute
-            joint allows (:func:`ucope.voting.kinematic.resolve_joint_flips`; on by default, measured in
-            docs/results.md).
+            joint allows (:func:`ucope.voting.kinematic.resolve_joint_flips`) and rigid objects whose
+            rotation is a half turn away from what their shape fits
+            (:func:`ucope.voting.kinematic.resolve_shape_flips`); on by default, measured in
+            docs/voting.md.
         seed: seed of the subsampling and pair draws.
         device: torch device of the network.
     """
