@@ -240,7 +240,7 @@ def main() -> int:
         out.append("")
 
     # ----------------------------------------------------------------------------- training curves
-    curves = [c for c in ("laptop", "mug") if (args.out.parent / "images" / f"training_{c}.png").is_file()]
+    curves = [c for c in ("laptop", "mug") if (root / "docs" / "images" / f"training_{c}.png").is_file()]
     if curves:
         out += ["## Training curves", "",
                 "Training (thin) and held-out validation (markers) losses and errors of the shipped laptop and mug models, "

@@ -32,7 +32,9 @@ def test_every_category_ships_a_small_model():
 # Strict: when a retrained model clears the bar the test fails until its entry is removed.
 BELOW_THE_BAR = {
     "eyeglasses": "left / right temples mixed up by the segmentation: 0.50, 0.35, 0.30 of the views under 15 deg",
-    "camera": "half-turn flips of a box-like body (lens side vs screen side): 0.30 of the views under 15 deg",
+    "drawer": "three look-alike drawers mixed by the segmentation, cabinet axes swapped in some views: "
+              "0.65, 0.50, 0.40, 0.40 of the views under 15 deg",
+    "camera": "half-turn flips of a box-like body (lens side vs screen side): 0.50 of the views under 15 deg",
 }
 
 
