@@ -42,7 +42,7 @@ def vote_object(
     :func:`ucope.voting.kinematic.kinematic_refine` (part scores as weights).
 
     Args: as :func:`ucope.voting.part.vote_parts` (``outputs`` also holding the joint heads for
-        ``K >= 2``).
+        ``K >= 2``); ``shape_flips=False`` turns the shape check off alone.
 
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
@@ -51,6 +51,7 @@ def vote_object(
         kinematic refinement ran.
     """
     out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options)
+    out["shape_turned"] = np.zeros(cfg.num_parts, dtype=bool)
     if resolve_flips and shape_flips and cfg.num_joints == 0:
         idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx)
         idx = idx.reshape(cfg.num_parts, -1)
