@@ -78,6 +78,25 @@ def test_learning_rate_steps_down_by_epoch(tmp_path):
     assert lrs[7] == pytest.approx(2.5e-4)
 
 
+def test_init_from_a_model_fine_tunes_its_weights(tmp_path):
+    train(tiny_train_config(tmp_path / "base", steps=3))
+    base, _ = load_model(tmp_path / "base")
+    # one step at a negligible learning rate: the run starts from the base weights, not from random ones
+    train(tiny_train_config(tmp_path / "tuned", steps=1, lr=1e-12, init_from=str(tmp_path / "base"),
+                            model_overrides=dict(TINY, lambda_seg=1.0, seg_weighting="points")))
+    tuned, meta = load_model(tmp_path / "tuned")
+    for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values()):
+        assert torch.allclose(a, b, atol=1e-6), k
+    assert tuned.cfg.stats == base.cfg.stats  # the outputs stay relative to the base model's statistics
+    assert tuned.cfg.lambda_seg == 1.0 and tuned.cfg.seg_weighting == "points"
+    assert meta["info"]["initialised_from"] == {"model": str(tmp_path / "base"), "category": "laptop", "steps": 3,
+                                                "train_time_s": json.loads((tmp_path / "base" / "model_card.json").read_text())["train_time_s"]}
+    with pytest.raises(InputError, match="cannot change"):
+        train(tiny_train_config(tmp_path / "wide", init_from=str(tmp_path / "base"), model_overrides=dict(TINY, hidden=48)))
+    with pytest.raises(InputError, match="'laptop' model cannot start a 'mug' run"):
+        train(tiny_train_config(tmp_path / "mug", category="mug", init_from=str(tmp_path / "base")))
+
+
 def test_bad_training_arguments_are_named(tmp_path):
     with pytest.raises(InputError, match="exactly one of steps and epochs"):
         train(tiny_train_config(tmp_path, epochs=1))

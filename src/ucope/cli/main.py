@@ -154,7 +154,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         lr_gamma=args.lr_gamma, model_size=args.size, model_overrides=overrides, seed=args.seed, data_seed=args.data_seed,
         epoch_size=args.epoch_size, val_samples=args.val_samples, workers=args.workers, log_every=args.log_every,
         val_every=args.val_every, checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
-        threads=args.threads, device=args.device, resume=args.resume, progress=not args.quiet,
+        threads=args.threads, device=args.device, resume=args.resume, init_from=args.init, progress=not args.quiet,
     )
     card = train(tc)
     if card:
@@ -372,6 +372,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     t.add_argument("--device", choices=["auto", "cpu", "cuda"], default="auto")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    t.add_argument("--init", default=None, metavar="MODEL",
+                   help="fine-tune: start from this model's weights (a shipped model name such as laptop, a run folder "
+                        "or a model .json) with a fresh optimiser; its network and category statistics are kept")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
 

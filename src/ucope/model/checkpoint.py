@@ -38,6 +38,9 @@ __all__ = [
     "load_model",
     "read_model_json",
     "resolve_model_path",
+    "find_model",
+    "pretrained_dir",
+    "list_pretrained",
     "save_checkpoint",
     "load_checkpoint",
     "sha256_file",
@@ -143,6 +146,36 @@ def _json_path(path: str | os.PathLike, create: bool = False) -> Path:
     if create:
         p.mkdir(parents=True, exist_ok=True)
     return p / "model.json"
+
+
+def pretrained_dir() -> Path:
+    """The folder of the models shipped inside the package (``<category>.json`` + ``.safetensors``)."""
+    return Path(__file__).resolve().parent.parent / "pretrained"
+
+
+def list_pretrained() -> list[str]:
+    """Names of the shipped models."""
+    d = pretrained_dir()
+    return sorted(p.stem for p in d.glob("*.json")) if d.is_dir() else []
+
+
+def find_model(model: str | os.PathLike) -> Path:
+    """The model JSON meant by ``model``: a run folder / model ``.json`` / ``.safetensors`` path, or
+    the name of a shipped model (``"laptop"``; :func:`list_pretrained`).
+
+    A path wins, unless it is a folder without a model in it and a shipped model has that name (a data
+    folder called ``laptop`` next to you does not hide the shipped laptop model). Raises
+    :class:`DataError` naming the shipped models if ``model`` is neither.
+    """
+    p = Path(model)
+    shipped = pretrained_dir() / f"{model}.json"
+    if p.exists() and not (p.is_dir() and not (p / "model.json").is_file() and shipped.is_file()):
+        return resolve_model_path(p)
+    if shipped.is_file():
+        return shipped
+    names = list_pretrained()
+    raise DataError(f"no model {str(model)!r}: not a file or folder, and not a shipped model"
+                    + (f" (shipped: {', '.join(names)})" if names else " (this install ships no models)"))
 
 
 def resolve_model_path(path: str | os.PathLike) -> Path:

@@ -47,7 +47,7 @@ from .. import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 from ..data.shards import atomic_write_json
 from ..errors import DataError, InputError, UcopeError
 from .batch import TrainingItems, batch_to, collate_items
-from .checkpoint import load_checkpoint, save_checkpoint, save_model
+from .checkpoint import find_model, load_checkpoint, load_model, read_model_json, save_checkpoint, save_model
 from .config import ModelConfig, compute_category_stats
 from .network import UCOPENet, build_model
 
@@ -83,6 +83,12 @@ class TrainConfig:
         threads: torch CPU threads (``None``: torch's default).
         device: ``"auto"`` (CUDA if available), ``"cpu"`` or ``"cuda"``.
         resume: continue from ``out``'s checkpoint.
+        init_from: start from the weights of this model (a shipped model's name such as ``"laptop"``,
+            a run folder or a model JSON: fine-tuning) instead of random ones. The network (its
+            architecture, bins and the category statistics its outputs are relative to) is that
+            model's; ``model_overrides`` may only change the training settings among its fields
+            (``pairs_per_part``, ``lambda_*``, ``seg_weighting``). The optimiser and the learning-rate
+            schedule start afresh. Ignored on ``resume`` (the checkpoint holds the weights).
         progress: show a progress bar (rank 0).
     """
 
@@ -111,6 +117,7 @@ class TrainConfig:
     threads: int | None = None
     device: str = "auto"
     resume: bool = False
+    init_from: str | None = None
     progress: bool = True
 
     def validate(self) -> None:
@@ -312,6 +319,22 @@ def train(tc: TrainConfig, on_step: Callable[[int], None] | None = None) -> dict
         dd.close()
 
 
+_FINE_TUNE_FIELDS = ("pairs_per_part", "lambda_seg", "lambda_joint", "lambda_pose", "seg_weighting")
+
+
+def _init_config(tc: TrainConfig) -> tuple[ModelConfig, torch.nn.Module]:
+    """The configuration and the model a ``--init`` run starts from (see :class:`TrainConfig`)."""
+    init, meta = load_model(find_model(tc.init_from))
+    cfg = init.cfg
+    if cfg.category != tc.category:
+        raise InputError(f"--init {tc.init_from}: a {cfg.category!r} model cannot start a {tc.category!r} run")
+    fixed = sorted(k for k in tc.model_overrides if k not in _FINE_TUNE_FIELDS and tc.model_overrides[k] != getattr(cfg, k, None))
+    if fixed:
+        raise InputError(f"--init {tc.init_from}: the network is the initial model's; {', '.join(fixed)} cannot change "
+                         f"(only {', '.join(_FINE_TUNE_FIELDS)} can)")
+    return dataclasses.replace(cfg, **{k: v for k, v in tc.model_overrides.items() if k in _FINE_TUNE_FIELDS}), init
+
+
 def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
     out = Path(tc.out)
     device = torch.device(f"cuda:{dd.local_rank}" if use_cuda else "cpu")
@@ -329,11 +352,17 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
         cfg = ModelConfig.from_dict(ckpt["config"])
         if cfg.category != tc.category:
             raise TrainingError(f"the checkpoint in {out} is a {cfg.category!r} model, not {tc.category!r}")
+        init = None
+    elif tc.init_from is not None:
+        cfg, init = _init_config(tc)
     else:
+        init = None
         stats = compute_category_stats(samples, max_samples=300 if tc.on_the_fly else 2000)
         cfg = ModelConfig.for_category(tc.category, stats, size=tc.model_size, **tc.model_overrides)
     torch.manual_seed(tc.seed)
     model = build_model(cfg)
+    if init is not None:
+        model.load_state_dict(init.state_dict())
     optimizer = torch.optim.Adam(model.parameters(), lr=tc.lr)
     step, elapsed_before = 0, 0.0
     if ckpt is not None:
@@ -472,6 +501,11 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
             "parameter_digests": digests,
             "train_config": tc.to_dict(),
         }
+        if tc.init_from is not None:  # a fine-tuned model: what it started from, and that model's own training
+            init_info = read_model_json(find_model(tc.init_from)).get("info", {})
+            card["initialised_from"] = {"model": str(tc.init_from), "category": init_info.get("category"),
+                                        "steps": init_info.get("steps"), "train_time_s": init_info.get("train_time_s")}
+            card["model_size"] = init_info.get("model_size", tc.model_size)
         save_model(model, out, info=card)
         atomic_write_json(out / "model_card.json", card)
     dd.barrier()
