@@ -9,7 +9,7 @@ from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.model.batch import TrainingItems, batch_to, collate_items, sample_pairs
 from ucope.model.config import CategoryStats, ModelConfig, compute_category_stats
-from ucope.model.network import UCOPENet
+from ucope.model.network import AXIS_HEADS, UCOPENet
 from ucope.model.pointnet2 import PointNet2Config
 
 TINY_ENCODER = PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
@@ -86,6 +86,30 @@ def test_pair_outputs_do_not_depend_on_other_pairs():
         full = net(b["points"], b["normals"], b["pair_idx"], b["fps_idx"])
         part = net(b["points"], b["normals"], b["pair_idx"][:, :, :5], b["fps_idx"])
     torch.testing.assert_close(part["alpha_logits"], full["alpha_logits"][:, :, :5])
+
+
+@pytest.mark.parametrize("category", ["mug", "drawer"])
+def test_lazy_pair_outputs_equal_the_full_heads(category):
+    """Some heads for every pair, the rest later for a few rows of one part: the same numbers."""
+    torch.manual_seed(0)
+    cfg = tiny_config(category)
+    net = UCOPENet(cfg).eval()
+    b = tiny_batch(cfg, n=1)
+    with torch.no_grad():
+        enc = net.encode(b["points"], b["normals"], b["fps_idx"])
+        full = net.pair_heads(enc, b["points"], b["normals"], b["pair_idx"])
+        some = net.pair_heads(enc, b["points"], b["normals"], b["pair_idx"], heads=("mu_logits", "part_score"), return_hidden=True)
+        assert set(some) == {"mu_logits", "part_score", "pair_hidden"}
+        torch.testing.assert_close(some["mu_logits"], full["mu_logits"])
+        torch.testing.assert_close(some["part_score"], full["part_score"])
+        rows = torch.tensor([3, 0, 7])
+        k = cfg.num_parts - 1
+        late = net.pair_outputs(some["pair_hidden"][0, k, rows], AXIS_HEADS, part=k)
+        assert set(late) == set(AXIS_HEADS)
+        for name in AXIS_HEADS:
+            torch.testing.assert_close(late[name], full[name][0, k, rows])
+        with pytest.raises(InputError, match="unknown pair heads"):
+            net.pair_outputs(some["pair_hidden"], ("theta_logits",))
 
 
 @pytest.mark.parametrize("category", ["mug", "bottle", "laptop", "drawer"])

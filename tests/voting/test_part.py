@@ -151,6 +151,21 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
     # Unbatched inputs work too; wrong shapes are named.
     res2 = vote_parts(points, normals, pair_idx, {k: v[0] for k, v in outputs.items()}, cfg, options=full_surface)
     np.testing.assert_allclose(res2["cam_from_part"], res["cam_from_part"], atol=1e-6)
+    # The axis heads computed lazily for the rows that vote the axes (as the estimator does): the same result.
+    asked = []
+
+    def axis_heads(k, rows):
+        asked.append((k, len(rows)))
+        return {n: outputs[n][0, k][rows] for n in ("alpha_logits", "beta_logits", "sign_logits")}
+
+    lazy_outputs = {n: v for n, v in outputs.items() if n not in ("alpha_logits", "beta_logits", "sign_logits")}
+    res3 = vote_parts(points, normals, pair_idx, lazy_outputs, cfg, options=full_surface, axis_heads=axis_heads)
+    np.testing.assert_array_equal(res3["cam_from_part"], res2["cam_from_part"])
+    assert [k for k, _ in asked] == list(range(K)) and all(0 < n <= VotingOptions().max_axis_pairs for _, n in asked)
+    with pytest.raises(InputError, match="alpha_logits"):
+        vote_parts(points, normals, pair_idx, lazy_outputs, cfg)
+    with pytest.raises(InputError, match="beta_logits"):
+        vote_parts(points, normals, pair_idx, lazy_outputs, cfg, axis_heads=lambda k, rows: {"alpha_logits": outputs["alpha_logits"][0, k][rows]})
     with pytest.raises(InputError, match="mu_logits"):
         vote_parts(points, normals, pair_idx, {**outputs, "mu_logits": outputs["mu_logits"][:, :, :10]}, cfg)
     with pytest.raises(InputError, match="pair_idx"):

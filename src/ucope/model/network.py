@@ -32,7 +32,10 @@ from .config import ModelConfig
 from .pointnet2 import PointNet2Encoder
 from .targets import joint_point_targets, pair_features, pair_vote_targets, two_hot, bin_centres
 
-__all__ = ["UCOPENet", "PerGroupLinear", "build_model"]
+__all__ = ["UCOPENet", "PerGroupLinear", "per_group_linear", "build_model", "AXIS_HEADS"]
+
+AXIS_HEADS = ("alpha_logits", "beta_logits", "sign_logits")
+"""The pair heads only the axis votes read (:meth:`UCOPENet.pair_outputs` computes them lazily)."""
 
 
 class PerGroupLinear(nn.Module):
@@ -46,11 +49,17 @@ class PerGroupLinear(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """``x``: ``(B, G, *, I)`` -> ``(B, G, *, O)``."""
-        B, G = x.shape[:2]
-        I = x.shape[-1]
-        flat = x.reshape(B, G, -1, I).transpose(0, 1).reshape(G, -1, I)  # (G, B n, I); a view when B = 1
-        y = torch.baddbmm(self.bias.unsqueeze(1), flat, self.weight)  # (G, B n, O)
-        return y.reshape(G, B, -1, y.shape[-1]).transpose(0, 1).reshape(*x.shape[:-1], -1)
+        return per_group_linear(x, self.weight, self.bias)
+
+
+def per_group_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.Tensor:
+    """:class:`PerGroupLinear` with the given ``weight`` ``(G, I, O)`` and ``bias`` ``(G, O)`` (e.g. a
+    subset of its output columns): ``(B, G, *, I)`` -> ``(B, G, *, O)``."""
+    B, G = x.shape[:2]
+    I = x.shape[-1]
+    flat = x.reshape(B, G, -1, I).transpose(0, 1).reshape(G, -1, I)  # (G, B n, I); a view when B = 1
+    y = torch.baddbmm(bias.unsqueeze(1), flat, weight)  # (G, B n, O)
+    return y.reshape(G, B, -1, y.shape[-1]).transpose(0, 1).reshape(*x.shape[:-1], -1)
 
 
 def _mlp(c_in: int, hidden: int, layers: int = 2) -> nn.Sequential:
@@ -129,17 +138,22 @@ class UCOPENet(nn.Module):
             out["masks"] = f1.new_ones(*f1.shape[:2], 1)
         return out
 
-    def pair_heads(self, enc: dict, points: torch.Tensor, normals: torch.Tensor, pair_idx: torch.Tensor) -> dict[str, torch.Tensor]:
+    def pair_heads(self, enc: dict, points: torch.Tensor, normals: torch.Tensor, pair_idx: torch.Tensor,
+                   heads=None, return_hidden: bool = False) -> dict[str, torch.Tensor]:
         """Per-pair voting outputs for every part.
 
         Args:
             enc: the output of :meth:`encode`.
             pair_idx: ``(B, K, M, 2)`` int64 indices of pair points for each part's heads.
+            heads: the output names to compute (default: all). Inference computes ``mu``, ``nu``,
+                ``gamma`` and ``part_score`` for every pair and the axis heads (:data:`AXIS_HEADS`) later,
+                with :meth:`pair_outputs`, for the few hundred pairs that vote the axes.
+            return_hidden: also return ``pair_hidden`` ``(B, K, M, H)``, the input of the output layer.
 
         Returns:
             ``mu_logits``, ``nu_logits`` ``(B, K, M, bins)``, ``alpha_logits``, ``beta_logits``
             ``(B, K, M, angle_bins)``, ``sign_logits`` ``(B, K, M, 2)`` (up, right), ``gamma``
-            ``(B, K, M, 3)``, ``part_score`` ``(B, K, M)`` logit.
+            ``(B, K, M, 3)``, ``part_score`` ``(B, K, M)`` logit (those in ``heads``).
         """
         K, H = self.cfg.num_parts, self.cfg.hidden
         B, N = points.shape[:2]
@@ -164,12 +178,49 @@ class UCOPENet(nn.Module):
         geo = pair_features(pts[..., 0, :], pts[..., 1, :], nrm[..., 0, :], nrm[..., 1, :], self.norm_scale)
         onehot = torch.eye(K, device=points.device, dtype=geo.dtype)[None, :, None, :].expand(B, K, M, K)
         h = h + self.pair_geo(torch.cat([geo, onehot], dim=-1))
-        y = self.pair_out(self.pair_mlp(h))
-        out, start = {}, 0
+        h = self.pair_mlp(h)
+        out = self.pair_outputs(h, heads)
+        if return_hidden:
+            out["pair_hidden"] = h
+        return out
+
+    def pair_outputs(self, hidden: torch.Tensor, heads=None, part: int | None = None) -> dict[str, torch.Tensor]:
+        """The output layer of the pair encoder, for some of its heads.
+
+        Args:
+            hidden: ``(B, K, M, H)`` (``pair_hidden`` of :meth:`pair_heads`), or with ``part`` given,
+                ``(M', H)`` hidden features of that part's pairs.
+            heads: output names (default: all, see :meth:`pair_heads`).
+            part: the part index whose output layer applies to ``(M', H)`` rows.
+
+        Returns:
+            the named outputs, shaped as in :meth:`pair_heads` (or ``(M', ...)`` for one part).
+        """
+        names = list(self.out_sizes) if heads is None else [n for n in self.out_sizes if n in heads]
+        unknown = set(heads or ()) - set(self.out_sizes)
+        if unknown:
+            raise InputError(f"unknown pair heads {sorted(unknown)} (known: {list(self.out_sizes)})")
+        starts, start = {}, 0
         for name, n in self.out_sizes.items():
-            out[name] = y[..., start : start + n]
+            starts[name] = (start, n)
             start += n
-        out["part_score"] = out["part_score"].squeeze(-1)
+        if part is None and len(names) == len(self.out_sizes):
+            y = self.pair_out(hidden)
+            cols = {n: (starts[n][0], starts[n][1]) for n in names}
+        else:
+            idx = torch.cat([torch.arange(starts[n][0], starts[n][0] + starts[n][1]) for n in names]).to(hidden.device)
+            w, b = self.pair_out.weight.index_select(-1, idx), self.pair_out.bias.index_select(-1, idx)
+            if part is None:
+                y = per_group_linear(hidden, w, b)
+            else:
+                y = torch.addmm(b[part], hidden, w[part])
+            cols, start = {}, 0
+            for n in names:
+                cols[n] = (start, starts[n][1])
+                start += starts[n][1]
+        out = {n: y[..., a : a + k] for n, (a, k) in cols.items()}
+        if "part_score" in out:
+            out["part_score"] = out["part_score"].squeeze(-1)
         return out
 
     def joint_heads(self, enc: dict) -> dict[str, torch.Tensor]:

@@ -37,7 +37,7 @@ import torch
 
 from ..errors import InputError
 from ._checks import strided, tensor
-from .centre import _dot
+from .centre import _cross3, _dot, _median, _np64
 
 __all__ = ["fibonacci_sphere", "vote_axis", "choose_axis_sign", "axis_residual", "cube_cell_centre"]
 
@@ -71,12 +71,13 @@ def axis_residual(u: torch.Tensor, e: torch.Tensor, angle: torch.Tensor) -> torc
     return (torch.arccos(x) - angle).abs()
 
 
-def _tangent_basis(u: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    ref = torch.zeros_like(u)
-    ref[int(u.abs().argmin())] = 1.0
-    b1 = torch.linalg.cross(u, ref)
-    b1 = b1 / b1.norm()
-    return b1, torch.linalg.cross(u, b1)
+def _tangent_basis(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal ``b1, b2`` spanning the plane normal to unit ``u`` ``(3,)`` (float64 numpy)."""
+    ref = np.zeros(3)
+    ref[int(np.abs(u).argmin())] = 1.0
+    b1 = _cross3(u, ref)
+    b1 /= math.sqrt(float(b1 @ b1))
+    return b1, _cross3(u, b1)
 
 
 def _cube_cell(u: torch.Tensor, G: int) -> torch.Tensor:
@@ -157,32 +158,38 @@ def _sphere_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, dirs: to
     return dirs[int(score.argmax())]
 
 
-def _refine_axis(u, e, angle, w, tol0: float, tol_min: float, iters: int, tol_start: float) -> torch.Tensor:
-    """Iteratively reweighted Gauss-Newton on the sphere (module docstring, step 2)."""
-    c = torch.cos(angle)
+def _refine_axis(u: np.ndarray, e: np.ndarray, angle: np.ndarray, w: np.ndarray, tol0: float, tol_min: float, iters: int,
+                 tol_start: float) -> np.ndarray:
+    """Iteratively reweighted Gauss-Newton on the sphere (module docstring, step 2), on float64 numpy
+    ``u`` ``(3,)``, ``e`` ``(3, M)``, ``angle, w`` ``(M,)`` (small arrays: numpy's per-call cost is a
+    fraction of torch's)."""
+    c = np.cos(angle)
     tol = tol_start
+    eye = np.eye(2)
     for _ in range(iters):
-        x = (u.view(3, 1) * e).sum(0)
-        r_ang = (torch.arccos(x.clamp(-1.0, 1.0)) - angle).abs()
+        x = u @ e
+        r_ang = np.abs(np.arccos(np.clip(x, -1.0, 1.0)) - angle)
         inl = r_ang < tol
-        t = (r_ang / tol).clamp(max=1.0)
-        wi = torch.where(inl, w * (1.0 - t * t).square(), 0.0)
-        W = float(wi.sum())
-        if W <= 0:
+        t = np.minimum(r_ang / tol, 1.0)
+        wi = np.where(inl, w * (1.0 - t * t) ** 2, 0.0)
+        if float(wi.sum()) <= 0:
             break
         b1, b2 = _tangent_basis(u)
-        J = torch.stack([(b1.view(3, 1) * e).sum(0), (b2.view(3, 1) * e).sum(0)])  # (2, M)
-        r = x - c
-        H = (J * wi) @ J.T
-        g = (J * wi) @ r
-        H = H + (1e-6 * float(H.diagonal().sum()) + 1e-12) * torch.eye(2, device=u.device, dtype=u.dtype)
-        d, info = torch.linalg.solve_ex(H, -g)
-        if int(info) != 0 or not bool(torch.isfinite(d).all()):
+        J = np.stack([b1 @ e, b2 @ e])  # (2, M)
+        Jw = J * wi
+        H = Jw @ J.T
+        g = Jw @ (x - c)
+        H += (1e-6 * float(np.trace(H)) + 1e-12) * eye
+        try:
+            d = np.linalg.solve(H, -g)
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(d)):
             break
         u = u + d[0] * b1 + d[1] * b2
-        u = u / u.norm()
-        new_tol = min(tol0, max(tol_min, 3.0 * float(r_ang[inl].median())))
-        if new_tol == tol and float(d.norm()) < 1e-3 * tol_min:  # converged
+        u = u / np.linalg.norm(u)
+        new_tol = min(tol0, max(tol_min, 3.0 * _median(r_ang[inl])))
+        if new_tol == tol and float(np.linalg.norm(d)) < 1e-3 * tol_min:  # converged
             break
         tol = new_tol
     return u
@@ -258,7 +265,8 @@ def _vote_axis(et, angle, w, method, num_angles, grid, num_directions, tol_deg, 
     else:
         u = _sphere_axis(et[:, cs], angle[cs], w[cs], fibonacci_sphere(num_directions, device=dev, dtype=et.dtype), tol)
     rs = strided(sel, max_refine_pairs)
-    u = _refine_axis(u, et[:, rs], angle[rs], w[rs], tol, tol_min, refine_iters, tol)
+    u64 = _refine_axis(_np64(u), _np64(et[:, rs]), _np64(angle[rs]), _np64(w[rs]), tol, tol_min, refine_iters, tol)
+    u = torch.as_tensor(u64, dtype=et.dtype, device=dev)
     inliers = (axis_residual(u, et, angle) < tol) & (w > 0)
     return u, inliers
 

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 
 from ..errors import InputError
@@ -153,39 +154,59 @@ def _grid_peak(cand: torch.Tensor, w: torch.Tensor, cell: float, max_cells: int)
     return lo + (idx + 0.5) * cell
 
 
-def _tukey(r: torch.Tensor, tol: float) -> torch.Tensor:
-    x = (r / tol).clamp(max=1.0)
-    return (1.0 - x * x) ** 2
+def _np64(x) -> np.ndarray:
+    """A float64 numpy copy of a tensor (any device) or array: the iterative refinements run on it."""
+    if isinstance(x, torch.Tensor):
+        x = x.detach().cpu().numpy()
+    return np.asarray(x, dtype=np.float64)
 
 
-def _refine_centre(c, f, e, p, nu, w, tol0: float, tol_min: float, iters: int, tol_start: float) -> torch.Tensor:
+def _median(x: np.ndarray) -> float:
+    """``np.median`` of a non-empty 1D array, without its per-call overhead (one partition)."""
+    n = len(x)
+    k = n // 2
+    part = np.partition(x, k)
+    return float(part[k]) if n % 2 else 0.5 * float(part[:k].max() + part[k])
+
+
+def _cross3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Cross product of two 3-vectors (``np.cross`` costs tens of microseconds per call)."""
+    return np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
+
+
+def _refine_centre(c: np.ndarray, f: np.ndarray, e: np.ndarray, p: np.ndarray, nu: np.ndarray, w: np.ndarray,
+                   tol0: float, tol_min: float, iters: int, tol_start: float) -> np.ndarray:
     """Iteratively reweighted Gauss-Newton on the circle distances (module docstring, step 2).
-    ``c`` ``(3,)``; ``f, e, p`` ``(3, M)``; ``nu, w`` ``(M,)``; Tukey scale from ``tol_start``, kept in
-    ``[tol_min, tol0]``."""
+    ``c`` ``(3,)``; ``f, e, p`` ``(3, M)``; ``nu, w`` ``(M,)``, all float64 numpy (a few dozen small
+    operations per iteration on at most ``max_refine_pairs`` pairs: numpy's per-call cost is a
+    fraction of torch's); Tukey scale from ``tol_start``, kept in ``[tol_min, tol0]``."""
     tol = tol_start
-    eye = torch.eye(3, device=c.device, dtype=c.dtype)
+    eye = np.eye(3)
     for _ in range(iters):
-        d = c.view(3, 1) - f
-        h = _dot(d, e)
+        d = c[:, None] - f
+        h = d[0] * e[0] + d[1] * e[1] + d[2] * e[2]
         dp = d - h * e  # radial part
-        rho = torch.sqrt(_dot(dp, dp))
-        ph = torch.where(rho > 1e-12, dp / rho.clamp_min(1e-12), p)
-        r = torch.sqrt((rho - nu).square() + h.square())
+        rho = np.sqrt(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2])
+        ph = np.where(rho > 1e-12, dp / np.maximum(rho, 1e-12), p)
+        r = np.sqrt((rho - nu) ** 2 + h * h)
         inl = r < tol
-        wi = torch.where(inl, w * _tukey(r, tol), 0.0)
+        x = np.minimum(r / tol, 1.0)
+        wi = np.where(inl, w * (1.0 - x * x) ** 2, 0.0)
         W = float(wi.sum())
         if W <= 0:
             break
         # Normal equations: sum w (ph ph^T + e e^T) dc = -sum w (closest-point residual d - nu ph).
         A = (ph * wi) @ ph.T + (e * wi) @ e.T
-        g = ((d - nu * ph) * wi).sum(1)
-        step, info = torch.linalg.solve_ex(A + (1e-6 * W) * eye, g)
-        if int(info) != 0 or not bool(torch.isfinite(step).all()):  # degenerate geometry: keep c
+        g = (d - nu * ph) @ wi
+        try:
+            step = np.linalg.solve(A + (1e-6 * W) * eye, g)
+        except np.linalg.LinAlgError:  # degenerate geometry: keep c
+            break
+        if not np.all(np.isfinite(step)):
             break
         c = c - step
-        med = float(r[inl].median())
-        new_tol = min(tol0, max(tol_min, 3.0 * med))
-        if new_tol == tol and float(step.norm()) < 1e-3 * tol_min:  # converged
+        new_tol = min(tol0, max(tol_min, 3.0 * _median(r[inl])))
+        if new_tol == tol and float(np.linalg.norm(step)) < 1e-3 * tol_min:  # converged
             break
         tol = new_tol
     return c
@@ -292,27 +313,29 @@ def _vote_centre(
     tol0 = inlier_tol_cells * cell
     tol_min = min(min_tol_cells * cell, tol0)
     rs = strided(voting, max_refine_pairs)
-    fr, er, pr, nur, wr = f[:, rs], e[:, rs], p[:, rs], nu[rs], w[rs]
-    c = _refine_centre(c, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+    fr, er, pr, nur, wr = (_np64(x) for x in (f[:, rs], e[:, rs], p[:, rs], nu[rs], w[rs]))
+    c64 = _refine_centre(_np64(c), fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+    c = torch.as_tensor(c64, dtype=at.dtype, device=dev)
 
     # 3. Mirror ambiguity: if the pair points are (nearly) coplanar, every circle is symmetric about
     # their plane and the centre's mirror image fits as well. Try it; if it fits about as well, keep
     # the one behind the surface as seen from the viewpoint (a visible face has the box behind it).
     if viewpoint is not None and refine_iters > 0:
-        pts = at[:, rs]
-        m = pts.mean(1, keepdim=True)
-        evals, evecs = torch.linalg.eigh(((pts - m) @ (pts - m).T).double())
-        n = evecs[:, 0].to(c.dtype)
-        h = float((c - m[:, 0]) @ n)
+        pts = _np64(at[:, rs])
+        m = pts.mean(1)
+        evals, evecs = np.linalg.eigh((pts - m[:, None]) @ (pts - m[:, None]).T)
+        n = evecs[:, 0]
+        h = float((c64 - m) @ n)
         if abs(h) > tol_min:
-            c2 = _refine_centre(c - 2.0 * h * n, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+            c2_64 = _refine_centre(c64 - 2.0 * h * n, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+            c2 = torch.as_tensor(c2_64, dtype=at.dtype, device=dev)
             s1 = float((w * (circle_distance(c, f, e, nu) < tol0)).sum())  # support among all voting pairs
             s2 = float((w * (circle_distance(c2, f, e, nu) < tol0)).sum())
             if s2 > s1 / mirror_ratio:
                 c = c2
             elif s2 >= mirror_ratio * s1:  # ambiguous: the candidate farther behind the surface
-                toward_view = torch.as_tensor(viewpoint, dtype=c.dtype, device=dev) - m[:, 0]
-                if float((c2 - c) @ toward_view) < 0:
+                toward_view = np.asarray(viewpoint, dtype=np.float64) - m
+                if float((c2_64 - c64) @ toward_view) < 0:
                     c = c2
     inliers = (circle_distance(c, f, e, nu) < tol0) & (w > 0)
     return c, inliers, e

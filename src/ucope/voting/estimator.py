@@ -31,8 +31,8 @@ import torch
 from ..errors import DataError, InputError
 from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
-from ..model.checkpoint import load_model
-from ..model.network import UCOPENet
+from ..model.checkpoint import find_model, list_pretrained, load_model, pretrained_dir
+from ..model.network import AXIS_HEADS, UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
 from .object import regressed_object, vote_object
 from .result import JointEstimate, PartEstimate, PoseResult
@@ -44,16 +44,8 @@ MIN_POINTS = 32
 
 JOINT_TYPE_NAMES = ("revolute", "prismatic")
 
-
-def pretrained_dir() -> Path:
-    """The folder of the models shipped inside the package (``<category>.json`` + ``.safetensors``)."""
-    return Path(__file__).resolve().parent.parent / "pretrained"
-
-
-def list_pretrained() -> list[str]:
-    """Names of the shipped models."""
-    d = pretrained_dir()
-    return sorted(p.stem for p in d.glob("*.json")) if d.is_dir() else []
+VOTE_HEADS = ("mu_logits", "nu_logits", "gamma", "part_score")
+"""The pair heads computed for every sampled pair (the axis heads only for the pairs voting the axes)."""
 
 
 def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -150,19 +142,9 @@ class Estimator:
     def load(cls, model: str | os.PathLike, **kwargs) -> "Estimator":
         """An estimator from a run folder / model JSON path, or the name of a shipped model
         (``Estimator.load("laptop")``; :func:`list_pretrained` lists them)."""
-        p = Path(model)
-        shipped = pretrained_dir() / f"{model}.json"
-        # A path wins, unless it is a folder without a model in it and a shipped model has that name
-        # (a data folder called "laptop" next to you does not hide the shipped laptop model).
-        if p.exists() and not (p.is_dir() and not (p / "model.json").is_file() and shipped.is_file()):
-            net, meta = load_model(p)
-            return cls(net, name=str(p), **kwargs)
-        if shipped.is_file():
-            net, meta = load_model(shipped)
-            return cls(net, name=str(model), **kwargs)
-        names = list_pretrained()
-        raise DataError(f"no model {str(model)!r}: not a file or folder, and not a shipped model"
-                        + (f" (shipped: {', '.join(names)})" if names else " (this install ships no models)"))
+        path = find_model(model)
+        net, _ = load_model(path)
+        return cls(net, name=str(Path(model)), **kwargs)
 
     @property
     def category(self) -> str:
@@ -200,13 +182,20 @@ class Estimator:
                 out.update(self.model.regress(enc, P))
             else:
                 pair_idx = self._sample_pairs(labels, rng)
-                out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device)))
+                # The axis heads are computed later, for the pairs that vote the axes only.
+                out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device),
+                                                 heads=VOTE_HEADS, return_hidden=True))
+                hidden = out.pop("pair_hidden")[0]  # (K, M, H)
         t3 = time.perf_counter()
         if cfg.head == "regression":
             v = regressed_object(p_net, out, cfg, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips)
         else:
+            def axis_heads(k: int, rows: torch.Tensor) -> dict:
+                with torch.no_grad():
+                    return self.model.pair_outputs(hidden[k].index_select(0, rows.to(hidden.device)), AXIS_HEADS, part=k)
+
             v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine,
-                            resolve_flips=self.resolve_flips)
+                            resolve_flips=self.resolve_flips, axis_heads=axis_heads)
         parts, joints = self._estimates(v)
         t4 = time.perf_counter()
         all_labels = label_points(raw, finite, p_net, labels)

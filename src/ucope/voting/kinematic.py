@@ -130,7 +130,7 @@ def _shape_templates(category: str, instances: int = 8, points: int = 512):
 
 
 def resolve_shape_flips(cam_from_part: np.ndarray, size_m: np.ndarray, points: np.ndarray, part_points: list,
-                        cfg: ModelConfig, margin: float = 0.75, clip: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+                        cfg: ModelConfig, margin: float = 0.75, clip: float = 0.25, max_points: int = 1024) -> tuple[np.ndarray, np.ndarray]:
     """Turn back parts whose voted rotation is a half turn (about one of the part's axes) away from
     the pose their own points fit best (beyond the paper).
 
@@ -139,7 +139,8 @@ def resolve_shape_flips(cam_from_part: np.ndarray, size_m: np.ndarray, points: n
     box, turned by each half turn, and compared with the category's shape (surface points of training
     instances, :func:`_shape_templates`): mean distance to the nearest template point, clipped at
     ``clip`` box sizes. The best half turn replaces the voted one when its misfit is below
-    ``margin`` times the voted one's. Parts symmetric about y are left alone.
+    ``margin`` times the voted one's. Parts symmetric about y are left alone. At most ``max_points``
+    of a part's points (evenly strided) are compared, all half turns in one k-d tree query.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` voted poses; size_m: ``(K, 3)`` voted sizes.
@@ -155,8 +156,12 @@ def resolve_shape_flips(cam_from_part: np.ndarray, size_m: np.ndarray, points: n
         idx = np.asarray(part_points[k])
         if cfg.part_symmetry[k] == "y" or len(idx) < 16:
             continue
+        if len(idx) > max_points:
+            idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(np.int64)]
         q = (points[idx] - T[k, :3, 3]) @ T[k, :3, :3] / np.maximum(size_m[k], 1e-6)
-        cost = np.array([np.minimum(trees[k].query(q * np.diag(D))[0], clip).mean() for D in _HALF_TURNS])
+        turns = np.diagonal(_HALF_TURNS, axis1=1, axis2=2)  # (4, 3): the half turns are diagonal
+        dist = trees[k].query((q[None] * turns[:, None, :]).reshape(-1, 3))[0]
+        cost = np.minimum(dist, clip).reshape(len(turns), -1).mean(1)
         best = int(np.argmin(cost))
         if best != 0 and cost[best] < margin * cost[0]:
             T[k, :3, :3] = T[k, :3, :3] @ _HALF_TURNS[best]

@@ -26,6 +26,7 @@ def vote_object(
     options: VotingOptions | None = None,
     resolve_flips: bool = True,
     shape_flips: bool = True,
+    axis_heads=None,
 ) -> dict[str, Any]:
     """:func:`ucope.voting.part.vote_parts` + :func:`ucope.voting.joints.vote_joints` + joint states.
 
@@ -42,7 +43,8 @@ def vote_object(
     :func:`ucope.voting.kinematic.kinematic_refine` (part scores as weights).
 
     Args: as :func:`ucope.voting.part.vote_parts` (``outputs`` also holding the joint heads for
-        ``K >= 2``); ``shape_flips=False`` turns the shape check off alone.
+        ``K >= 2``; ``axis_heads`` computes the axis heads lazily); ``shape_flips=False`` turns the
+        shape check off alone.
 
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
@@ -50,7 +52,7 @@ def vote_object(
         ``shape_turned`` ``(K,)`` those turned by the shape check; ``refined`` tells whether the
         kinematic refinement ran.
     """
-    out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options)
+    out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options, axis_heads=axis_heads)
     out["shape_turned"] = np.zeros(cfg.num_parts, dtype=bool)
     if resolve_flips and shape_flips and cfg.num_joints == 0:
         idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx)

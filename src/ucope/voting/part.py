@@ -32,16 +32,18 @@ the device of the inputs.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import torch
 
 from ..errors import InputError
 from ..model.config import ModelConfig
+from ..model.network import AXIS_HEADS
 from ._checks import strided, tensor
 from .axis import _choose_sign, _vote_axis
 from .bins import decode_bins
@@ -174,8 +176,22 @@ def vote_part(
     if mean_size.shape != (3,) or not np.all(np.isfinite(mean_size)) or np.any(mean_size <= 0):
         raise InputError(f"mean_size_m must be 3 positive numbers, got {mean_size_m}")
 
+    mu = decode_bins(mu_l, -V, V, opt.window)
+    nu = decode_bins(nu_l, 0.0, V, opt.window)
+    return _vote_part(a, b, n_a, mu, nu, lambda gi: (al_l[gi], be_l[gi], sg_l[gi]), gam, torch.sigmoid(ps), V, mean_size,
+                      symmetric, awareness, opt, t0)
+
+
+def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: np.ndarray, symmetric: bool,
+               awareness: bool, opt: VotingOptions, t0: float) -> PartVote:
+    """:func:`vote_part` on checked inputs, with ``mu, nu`` ``(M,)`` already decoded (for every pair:
+    decoding is row-wise, so :func:`vote_parts` decodes all parts at once), ``axis_logits(rows)`` the
+    ``alpha``, ``beta`` and sign logits of the pairs ``rows`` ``(A,)`` (``(A, bins)``, ``(A, bins)``,
+    ``(A, 2)``: computed lazily at inference), and ``prob`` ``(M,)`` the part-score probabilities;
+    ``t0`` the start time of the decode stage."""
+    dev = a.device
+    M = a.shape[0]
     # 1. Part awareness.
-    prob = torch.sigmoid(ps)
     fallback = False
     sel = torch.arange(M, device=dev)
     if awareness:
@@ -185,9 +201,8 @@ def vote_part(
         else:
             fallback = True
     S = len(sel)
-    # 2. Decoding of mu, nu (every voting pair: they all take part in the inlier test).
-    mu = decode_bins(mu_l[sel], -V, V, opt.window)
-    nu = decode_bins(nu_l[sel], 0.0, V, opt.window)
+    # 2. The voting pairs' decoded mu, nu (they all take part in the inlier test).
+    mu, nu = mu[sel], nu[sel]
     t1 = time.perf_counter()
     # 3. Centre.
     at = a[sel].T.contiguous()
@@ -207,14 +222,15 @@ def vote_part(
     ones = torch.ones(len(ax), device=dev)
     every = torch.ones(len(ax), dtype=torch.bool, device=dev)
     axis_args = ("cubemap", int(opt.axis_num_angles), int(opt.axis_grid), 0, float(opt.axis_tol_deg), 0.2, 6, int(opt.max_coarse_pairs), len(ax))
-    alpha = decode_bins(al_l[gi], 0.0, math.pi, opt.window)
+    al_l, be_l, sg_l = axis_logits(gi)
+    alpha = decode_bins(al_l, 0.0, math.pi, opt.window)
     up, _ = _vote_axis(e_ax, alpha, ones, *axis_args)
-    up, _ = _choose_sign(up, e_ax, alpha, n_ax, sg_l[gi, 0], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
+    up, _ = _choose_sign(up, e_ax, alpha, n_ax, sg_l[:, 0], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
     right = beta = None
     if not symmetric:
-        beta = decode_bins(be_l[gi], 0.0, math.pi, opt.window)
+        beta = decode_bins(be_l, 0.0, math.pi, opt.window)
         right, _ = _vote_axis(e_ax, beta, ones, *axis_args)
-        right, _ = _choose_sign(right, e_ax, beta, n_ax, sg_l[gi, 1], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
+        right, _ = _choose_sign(right, e_ax, beta, n_ax, sg_l[:, 1], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
     t3 = time.perf_counter()
     # 5. Rotation. Both axes voted onto (nearly) one direction happens on garbage votes: take y alone
     # then (x any perpendicular) and let the refinement find x on the beta cones.
@@ -271,6 +287,7 @@ def vote_parts(
     cfg: ModelConfig,
     awareness: bool = True,
     options: VotingOptions | None = None,
+    axis_heads: Callable[[int, torch.Tensor], Mapping[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """Vote every part of one object from the network's outputs (batch size 1).
 
@@ -284,6 +301,12 @@ def vote_parts(
         cfg: the model's :class:`ucope.model.config.ModelConfig` (bins, vote ranges, mean sizes,
             symmetry).
         awareness: part awareness on (paper) or off (ablation).
+        axis_heads: optional ``axis_heads(k, rows)`` -> ``alpha_logits``, ``beta_logits``,
+            ``sign_logits`` of part ``k``'s pairs ``rows`` ``(A,)`` (``(A, ...)`` tensors); then
+            ``outputs`` may omit those heads. The estimator passes
+            :meth:`ucope.model.network.UCOPENet.pair_outputs` here: the axes are voted by at most
+            ``options.max_axis_pairs`` pairs per part, so the network evaluates its widest heads on
+            those alone.
 
     Returns:
         dict of numpy arrays: ``cam_from_part`` ``(K, 4, 4)``, ``size_m`` ``(K, 3)``, ``score``
@@ -304,7 +327,8 @@ def vote_parts(
     if bool((idx < 0).any()) or bool((idx >= N).any()):
         raise InputError(f"pair_idx holds indices outside [0, {N})")
     heads = {}
-    for name in ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score"):
+    names = ("mu_logits", "nu_logits", "gamma", "part_score") + (() if axis_heads is not None else AXIS_HEADS)
+    for name in names:
         if name not in outputs:
             raise InputError(f"outputs lack {name!r} (run the network with pair_idx)")
         x = tensor(outputs[name], name, (None,) * np.ndim(outputs[name]), device=pts.device)
@@ -319,13 +343,23 @@ def vote_parts(
         num_pairs=np.zeros(K, dtype=np.int64), num_inliers=np.zeros(K, dtype=np.int64),
         fallback=np.zeros(K, dtype=bool), timings_ms=[],
     )
+    opt = options or VotingOptions()
+    t0 = time.perf_counter()
+    V = torch.tensor(cfg.stats.vote_range_m, dtype=pts.dtype, device=pts.device).view(K, 1)
+    mu_all = decode_bins(heads["mu_logits"], -V, V, opt.window)  # (K, M), every part at once
+    nu_all = decode_bins(heads["nu_logits"], 0.0, V, opt.window)
+    prob_all = torch.sigmoid(heads["part_score"])
+    mean_sizes = np.asarray(cfg.stats.mean_size_m, dtype=np.float64).reshape(K, 3)
     for k in range(K):  # a handful of parts; everything inside is vectorised over pairs
         ia, ib = idx[k, :, 0], idx[k, :, 1]
-        r = vote_part(
-            pts[ia], pts[ib], nrm[ia],
-            *(heads[n][k] for n in ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score")),
-            vote_range_m=cfg.stats.vote_range_m[k], mean_size_m=cfg.stats.mean_size_m[k],
-            symmetric=cfg.part_symmetry[k] == "y", awareness=awareness, options=options,
+        if axis_heads is None:
+            axis_logits = functools.partial(_rows, tuple(heads[n][k] for n in AXIS_HEADS))
+        else:
+            axis_logits = functools.partial(_lazy_rows, axis_heads, k)
+        r = _vote_part(
+            pts[ia], pts[ib], nrm[ia], mu_all[k], nu_all[k], axis_logits, heads["gamma"][k], prob_all[k],
+            float(cfg.stats.vote_range_m[k]), mean_sizes[k], cfg.part_symmetry[k] == "y", awareness, opt,
+            t0 if k == 0 else time.perf_counter(),
         )
         out["cam_from_part"][k] = r.cam_from_part
         out["size_m"][k] = r.size_m
@@ -335,6 +369,20 @@ def vote_parts(
         out["fallback"][k] = r.fallback
         out["timings_ms"].append(r.timings_ms)
     return out
+
+
+def _rows(logits: tuple, rows: torch.Tensor) -> tuple:
+    return tuple(x[rows] for x in logits)
+
+
+def _lazy_rows(axis_heads: Callable, k: int, rows: torch.Tensor) -> tuple:
+    """The axis heads of part ``k``'s pairs ``rows`` from ``axis_heads``, checked."""
+    out = axis_heads(k, rows)
+    A = len(rows)
+    try:
+        return tuple(tensor(out[n], n, (A, None), device=rows.device) for n in AXIS_HEADS)
+    except KeyError as e:
+        raise InputError(f"axis_heads returned no {e.args[0]!r}") from None
 
 
 def as_points(x, name: str, device=None) -> torch.Tensor:

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 
 from ..errors import InputError
 from ._checks import tensor
+from .centre import _median, _np64
 
 __all__ = ["rotation_from_axes", "perpendicular_axis", "refine_rotation", "so3_exp"]
 
@@ -122,38 +124,58 @@ def refine_rotation(
     return _refine_rotation(R, prepared, int(iters), float(tol_deg), float(min_tol_deg))
 
 
+def _so3_exp_np(w: np.ndarray) -> np.ndarray:
+    """:func:`so3_exp` in float64 numpy."""
+    th = float(np.linalg.norm(w))
+    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    if th < 1e-8:
+        return np.eye(3) + K
+    return np.eye(3) + math.sin(th) / th * K + (1.0 - math.cos(th)) / th**2 * (K @ K)
+
+
 def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -> torch.Tensor:
-    """:func:`refine_rotation` on ``terms = [(column, e (3, M) coordinate-major, angle (M,), w (M,))]``."""
-    dev = R.device
-    prepared = [[col, et, ang, torch.cos(ang), w, math.radians(tol_deg)] for col, et, ang, w in terms]
+    """:func:`refine_rotation` on ``terms = [(column, e (3, M) coordinate-major, angle (M,), w (M,))]``.
+
+    Runs in float64 numpy on the CPU (a few dozen small operations per iteration: numpy's per-call
+    cost is a fraction of torch's); returns a rotation of ``R``'s dtype and device."""
+    dtype, dev = R.dtype, R.device
+    prepared = []
+    for col, et, ang, w in terms:
+        ang = _np64(ang)
+        prepared.append([col, _np64(et), ang, np.cos(ang), _np64(w), math.radians(tol_deg)])
     tol_min = math.radians(min_tol_deg)
-    eye = torch.eye(3, dtype=R.dtype, device=dev)
+    Rn = _np64(R)
+    eye = np.eye(3)
     for _ in range(iters):
-        H = torch.zeros(3, 3, dtype=R.dtype, device=dev)
-        g = torch.zeros(3, dtype=R.dtype, device=dev)
+        H = np.zeros((3, 3))
+        g = np.zeros(3)
         for term in prepared:
             col, et, ang, c, w, tol = term
-            a = R[:, col]
-            x = (a.view(3, 1) * et).sum(0)
-            r_ang = (torch.arccos(x.clamp(-1.0, 1.0)) - ang).abs()
+            a = Rn[:, col]
+            x = a @ et
+            r_ang = np.abs(np.arccos(np.clip(x, -1.0, 1.0)) - ang)
             inl = (r_ang < tol) & (w > 0)
-            if not bool(inl.any()):
+            if not inl.any():
                 continue
-            t = (r_ang / tol).clamp(max=1.0)
-            wi = torch.where(inl, w * (1.0 - t * t).square(), 0.0)
+            t = np.minimum(r_ang / tol, 1.0)
+            wi = np.where(inl, w * (1.0 - t * t) ** 2, 0.0)
             # d/dd of e . (a + d x a) = (a x e) . d
-            J = torch.stack([a[1] * et[2] - a[2] * et[1], a[2] * et[0] - a[0] * et[2], a[0] * et[1] - a[1] * et[0]])
-            H += (J * wi) @ J.T
-            g += (J * wi) @ (x - c)
-            term[5] = min(tol, max(tol_min, 3.0 * float(r_ang[inl].median())))
-        tr = float(H.diagonal().sum())
+            J = np.stack([a[1] * et[2] - a[2] * et[1], a[2] * et[0] - a[0] * et[2], a[0] * et[1] - a[1] * et[0]])
+            Jw = J * wi
+            H += Jw @ J.T
+            g += Jw @ (x - c)
+            term[5] = min(tol, max(tol_min, 3.0 * _median(r_ang[inl])))
+        tr = float(np.trace(H))
         if tr <= 0:
             break
-        d, info = torch.linalg.solve_ex(H + (1e-6 * tr) * eye, -g)
-        if int(info) != 0 or not bool(torch.isfinite(d).all()):
+        try:
+            d = np.linalg.solve(H + (1e-6 * tr) * eye, -g)
+        except np.linalg.LinAlgError:
             break
-        R = so3_exp(d) @ R
-        if float(d.norm()) < 1e-3 * tol_min and all(t[5] <= tol_min for t in prepared):  # converged
+        if not np.all(np.isfinite(d)):
             break
-    U, _, Vh = torch.linalg.svd(R.double())  # re-orthonormalise (float32 drift)
-    return (U @ Vh).to(R.dtype)
+        Rn = _so3_exp_np(d) @ Rn
+        if float(np.linalg.norm(d)) < 1e-3 * tol_min and all(t[5] <= tol_min for t in prepared):  # converged
+            break
+    U, _, Vh = np.linalg.svd(Rn)  # re-orthonormalise
+    return torch.as_tensor(U @ Vh, dtype=dtype, device=dev)
