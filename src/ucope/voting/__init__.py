@@ -1,7 +1,9 @@
 """Voting layer: 9D part poses and joints from the network's per-pair and per-point outputs.
 
-Pure tensor geometry (no network code, no Python loops over pairs or points); float32 torch on the
-device of the inputs. See docs/voting.md for the algorithms, defaults and measured accuracy.
+Pure geometry (no network code, no Python loops over pairs or points): the stages over every pair
+(decoding, grid votes, inlier tests) in float32 torch on the device of the inputs, the iterative
+refinements on their subsets of at most ~1000 pairs in float64 numpy (dozens of small operations per
+iteration, where numpy's per-call cost is a fraction of torch's). See docs/voting.md for the algorithms, defaults and measured accuracy.
 
 * :func:`decode_bins`: binned logits -> values (expectation around the argmax).
 * :func:`vote_centre`: centre from the pairs' ``(mu, nu)`` circles (grid vote + Gauss-Newton).

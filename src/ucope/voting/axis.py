@@ -24,7 +24,8 @@ tells ``u`` from ``-u`` unless every ``alpha`` is near 90 degrees. :func:`vote_a
 predicted sign bits (the one ambiguity the directed cone leaves: ``alpha`` near 90 degrees for all
 pairs, e.g. the normal of a flat part).
 
-Frames: everything in one frame (the camera frame). Tensors are float32 torch tensors on any device.
+Frames: everything in one frame (the camera frame). Tensors are float32 torch tensors on any device
+(the refinement runs in float64 numpy on its at most ``max_refine_pairs`` pairs).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ import torch
 
 from ..errors import InputError
 from ._checks import strided, tensor
-from .centre import _cross3, _dot, _median, _np64
+from .centre import _cross3, _dot, _median, _np64, circle_basis
 
 __all__ = ["fibonacci_sphere", "vote_axis", "choose_axis_sign", "axis_residual", "cube_cell_centre"]
 
@@ -112,8 +113,8 @@ def cube_cell_centre(idx: int, G: int, device=None, dtype=torch.float32) -> torc
     v = [0.0, 0.0, 0.0]
     v[major] = -1.0 if neg else 1.0
     v[i1], v[i2] = s, t
-    out = torch.tensor(v, device=device, dtype=dtype)
-    return out / out.norm()
+    n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return torch.tensor([v[0] / n, v[1] / n, v[2] / n], device=device, dtype=dtype)
 
 
 def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angles: int, grid: int) -> torch.Tensor:
@@ -132,8 +133,7 @@ def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angl
     p = p / torch.sqrt(_dot(p, p)).clamp_min(1e-12)
     q = _cross(e, p)
     sa, ca = torch.sin(angle), torch.cos(angle)
-    t = torch.arange(num_angles, device=e.device, dtype=e.dtype) * (2.0 * math.pi / num_angles)
-    basis = torch.stack([t.cos(), t.sin(), torch.ones_like(t)], dim=0)  # (3, T)
+    basis = circle_basis(num_angles, e.device, e.dtype)  # (3, T)
     A = torch.stack([p * sa, q * sa, e * ca], dim=-1)  # (3, S, 3)
     cand = (A.reshape(3 * S, 3) @ basis).view(3, S, num_angles)
     cell = (math.pi / 2) / grid
@@ -171,11 +171,12 @@ def _refine_axis(u: np.ndarray, e: np.ndarray, angle: np.ndarray, w: np.ndarray,
         r_ang = np.abs(np.arccos(np.clip(x, -1.0, 1.0)) - angle)
         inl = r_ang < tol
         t = np.minimum(r_ang / tol, 1.0)
-        wi = np.where(inl, w * (1.0 - t * t) ** 2, 0.0)
+        t = 1.0 - t * t
+        wi = np.where(inl, w * t * t, 0.0)
         if float(wi.sum()) <= 0:
             break
         b1, b2 = _tangent_basis(u)
-        J = np.stack([b1 @ e, b2 @ e])  # (2, M)
+        J = np.stack((b1, b2)) @ e  # (2, M)
         Jw = J * wi
         H = Jw @ J.T
         g = Jw @ (x - c)

@@ -34,11 +34,13 @@ of its voxel size). Measured on exact synthetic votes (tests/voting, docs/voting
 is within a few hundredths of a cell, with 20% outlier pairs.
 
 Frames: everything in one frame (the camera frame), metres. Tensors are float32 torch tensors on any
-device (numpy arrays are converted).
+device (numpy arrays are converted); the refinement (step 2, 3) runs in float64 numpy on its at most
+``max_refine_pairs`` pairs.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -87,6 +89,13 @@ def pair_frames(a: torch.Tensor, b: torch.Tensor, mu: torch.Tensor) -> tuple[tor
     return e, f, p, q, valid
 
 
+@functools.lru_cache(maxsize=16)
+def circle_basis(num_angles: int, device, dtype) -> torch.Tensor:
+    """``(3, T)`` rows ``cos t_j``, ``sin t_j``, ``1`` at ``t_j = 2 pi j / T`` (cached: read-only)."""
+    t = torch.arange(num_angles, dtype=torch.float64) * (2.0 * math.pi / num_angles)
+    return torch.stack([t.cos(), t.sin(), torch.ones_like(t)], dim=0).to(device=device, dtype=dtype)
+
+
 def circle_candidates(f: torch.Tensor, p: torch.Tensor, q: torch.Tensor, nu: torch.Tensor, num_angles: int) -> torch.Tensor:
     """Points ``f + nu (cos t_j p + sin t_j q)`` at ``t_j = 2 pi j / T`` on every circle.
 
@@ -94,8 +103,7 @@ def circle_candidates(f: torch.Tensor, p: torch.Tensor, q: torch.Tensor, nu: tor
     product).
     """
     M = f.shape[1]
-    t = torch.arange(num_angles, device=f.device, dtype=f.dtype) * (2.0 * math.pi / num_angles)
-    basis = torch.stack([t.cos(), t.sin(), torch.ones_like(t)], dim=0)  # (3 terms, T)
+    basis = circle_basis(num_angles, f.device, f.dtype)  # (3 terms, T)
     A = torch.stack([p * nu, q * nu, f], dim=-1)  # (3 coords, M, 3 terms)
     return (A.reshape(3 * M, 3) @ basis).view(3, M, num_angles)
 
@@ -188,10 +196,12 @@ def _refine_centre(c: np.ndarray, f: np.ndarray, e: np.ndarray, p: np.ndarray, n
         dp = d - h * e  # radial part
         rho = np.sqrt(dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2])
         ph = np.where(rho > 1e-12, dp / np.maximum(rho, 1e-12), p)
-        r = np.sqrt((rho - nu) ** 2 + h * h)
+        dr = rho - nu
+        r = np.sqrt(dr * dr + h * h)
         inl = r < tol
         x = np.minimum(r / tol, 1.0)
-        wi = np.where(inl, w * (1.0 - x * x) ** 2, 0.0)
+        x = 1.0 - x * x
+        wi = np.where(inl, w * x * x, 0.0)
         W = float(wi.sum())
         if W <= 0:
             break

@@ -27,7 +27,7 @@ For part ``k`` (:func:`vote_part`):
 
 Frames and units: points, centres, poses in the camera frame, metres; poses returned as numpy float64
 ``cam_from_part`` ``(4, 4)`` (convention of docs/conventions.md). The voting runs in float32 torch on
-the device of the inputs.
+the device of the inputs, its Gauss-Newton refinements in float64 numpy (see :mod:`ucope.voting`).
 """
 
 from __future__ import annotations
@@ -349,6 +349,7 @@ def vote_parts(
     mu_all = decode_bins(heads["mu_logits"], -V, V, opt.window)  # (K, M), every part at once
     nu_all = decode_bins(heads["nu_logits"], 0.0, V, opt.window)
     prob_all = torch.sigmoid(heads["part_score"])
+    gamma_all = heads["gamma"].contiguous()  # a strided view of the output layer: rows gather faster
     mean_sizes = np.asarray(cfg.stats.mean_size_m, dtype=np.float64).reshape(K, 3)
     for k in range(K):  # a handful of parts; everything inside is vectorised over pairs
         ia, ib = idx[k, :, 0], idx[k, :, 1]
@@ -357,7 +358,7 @@ def vote_parts(
         else:
             axis_logits = functools.partial(_lazy_rows, axis_heads, k)
         r = _vote_part(
-            pts[ia], pts[ib], nrm[ia], mu_all[k], nu_all[k], axis_logits, heads["gamma"][k], prob_all[k],
+            pts[ia], pts[ib], nrm[ia], mu_all[k], nu_all[k], axis_logits, gamma_all[k], prob_all[k],
             float(cfg.stats.vote_range_m[k]), mean_sizes[k], cfg.part_symmetry[k] == "y", awareness, opt,
             t0 if k == 0 else time.perf_counter(),
         )

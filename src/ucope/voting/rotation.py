@@ -60,11 +60,11 @@ def rotation_from_axes(up, right=None) -> torch.Tensor:
     x = x / nx
     if float(torch.linalg.cross(x, y).norm()) < 1e-6:
         raise InputError("up and right are parallel: no rotation")
-    A = torch.stack([x, y, torch.linalg.cross(x, y)], dim=1).double()
-    U, _, Vh = torch.linalg.svd(A)
-    d = torch.sign(torch.linalg.det(U @ Vh))
-    R = U @ torch.diag(torch.stack([torch.ones_like(d), torch.ones_like(d), d])) @ Vh
-    return R.to(y.dtype)
+    xn, yn = _np64(x), _np64(y)
+    U, _, Vh = np.linalg.svd(np.stack([xn, yn, np.cross(xn, yn)], axis=1))  # a 3x3: numpy is cheaper
+    if np.linalg.det(U @ Vh) < 0:
+        U[:, 2] = -U[:, 2]
+    return torch.as_tensor(U @ Vh, dtype=y.dtype, device=y.device)
 
 
 def so3_exp(w: torch.Tensor) -> torch.Tensor:
@@ -158,7 +158,8 @@ def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -
             if not inl.any():
                 continue
             t = np.minimum(r_ang / tol, 1.0)
-            wi = np.where(inl, w * (1.0 - t * t) ** 2, 0.0)
+            t = 1.0 - t * t
+            wi = np.where(inl, w * t * t, 0.0)
             # d/dd of e . (a + d x a) = (a x e) . d
             J = np.stack([a[1] * et[2] - a[2] * et[1], a[2] * et[0] - a[0] * et[2], a[0] * et[1] - a[1] * et[0]])
             Jw = J * wi
