@@ -69,6 +69,26 @@ def test_degenerate_inputs_do_not_crash(rng):
     assert np.all(np.isfinite(r.cam_from_part)) and r.fallback
 
 
+def test_pairs_of_one_point_twice_never_vote(rng):
+    """Seen on a trained drawer model: a part with no segmented points whose only confident pairs were
+    (i, i); that raised from inside the centre vote. Such pairs are left out of the awareness count,
+    and a part with nothing else gets no estimate (score 0) instead of an error."""
+    T, size = random_part(rng)
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 400)
+    a, b = a.clone(), b.clone()
+    h = {k: v.clone() for k, v in h.items()}
+    b[:10] = a[:10]
+    h["part_score"][:] = -5.0
+    h["part_score"][:10] = 5.0  # only the degenerate pairs pass the part score
+    r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    assert r.fallback and r.num_pairs == 390 and np.all(np.isfinite(r.cam_from_part))
+    r = vote_part(a, a, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
+    assert r.score == 0.0 and r.num_pairs == 0 and r.fallback
+    np.testing.assert_allclose(r.cam_from_part[:3, :3], np.eye(3))
+    np.testing.assert_allclose(r.cam_from_part[:3, 3], a.double().mean(0).numpy(), atol=1e-9)
+    np.testing.assert_allclose(r.size_m, size)
+
+
 def test_up_and_right_voted_onto_one_direction_still_give_a_rotation(rng):
     """Garbage votes can put both axes on one direction (seen on a trained eyeglasses model); the part
     keeps its up axis and gets a proper rotation instead of an error from deep inside."""

@@ -5,7 +5,8 @@ For part ``k`` (:func:`vote_part`):
 1. **Part awareness**: the pairs whose predicted part score ``sigmoid(part_score) > 0.5`` vote (pairs
    across two parts carry wrong parameters). If fewer than ``min_pairs`` pass, every pair of the part
    votes instead (``fallback``), which also lowers the score (below). ``awareness=False`` (ablation):
-   every pair votes with weight 1.
+   every pair votes with weight 1. Pairs of one point twice never vote (no direction); a part whose
+   pairs are all such gets no estimate: identity rotation at the points' mean, the mean size, score 0.
 2. Decode ``mu, nu`` (on ``[-V_k, V_k]`` / ``[0, V_k]``) and ``alpha, beta`` (on ``[0, pi]``) with
    :func:`ucope.voting.bins.decode_bins` (expectation within +-1 bin of the argmax).
 3. Centre: :func:`ucope.voting.centre.vote_centre`; its inliers (circle within 2 cells of the centre,
@@ -191,16 +192,23 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     ``t0`` the start time of the decode stage."""
     dev = a.device
     M = a.shape[0]
-    # 1. Part awareness.
+    # 1. Part awareness, among the pairs of two distinct points (a pair (i, i) has no direction; the
+    # network can still give it a high part score).
     fallback = False
-    sel = torch.arange(M, device=dev)
+    distinct = (a != b).any(-1)
+    sel = torch.nonzero(distinct).squeeze(-1)
     if awareness:
-        passing = torch.nonzero(prob > float(opt.score_threshold)).squeeze(-1)
+        passing = torch.nonzero(distinct & (prob > float(opt.score_threshold))).squeeze(-1)
         if len(passing) >= int(opt.min_pairs):
             sel = passing
         else:
             fallback = True
     S = len(sel)
+    if S == 0:  # every pair is degenerate: no estimate (score 0) rather than an error
+        T = np.eye(4)
+        T[:3, 3] = a.double().mean(0).cpu().numpy()
+        return PartVote(cam_from_part=T, size_m=mean_size.copy(), score=0.0, num_pairs=0, num_inliers=0, fallback=True,
+                        timings_ms=dict(decode=1000.0 * (time.perf_counter() - t0), centre=0.0, axes=0.0, rotation=0.0, size=0.0))
     # 2. The voting pairs' decoded mu, nu (they all take part in the inlier test).
     mu, nu = mu[sel], nu[sel]
     t1 = time.perf_counter()
