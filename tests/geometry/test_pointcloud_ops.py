@@ -23,6 +23,9 @@ def test_fps_matches_plain_reference_and_batches(rng):
     for b, s in enumerate([0, 5, 9]):
         np.testing.assert_array_equal(out[b], _naive_fps(pts[b], 40, s))
     assert len(np.unique(out[0])) == 40
+    # One cloud takes its own (scalar-indexed) path: the same samples as in the batch.
+    for b, s in enumerate([0, 5, 9]):
+        np.testing.assert_array_equal(farthest_point_sampling(pts[b], 40, start=s), out[b])
 
 
 def test_fps_spreads_points(rng):

@@ -30,6 +30,8 @@ def farthest_point_sampling(points: np.ndarray, m: int, start: int | np.ndarray 
     # Coordinate-major planes and in-place updates: about 2x (one cloud) to 6x (a batch) faster than
     # ((pts - p) ** 2).sum(-1), with the same summation order ((dx^2 + dy^2) + dz^2), so the same result.
     x, y, z = np.ascontiguousarray(np.moveaxis(pts, -1, 0))
+    if single:
+        return _fps_one(x[0], y[0], z[0], m, int(np.asarray(start).reshape(-1)[0]))
     out = np.empty((B, m), dtype=np.int64)
     cur = np.broadcast_to(np.asarray(start, dtype=np.int64), (B,)).copy()
     dist = np.full((B, N), np.inf, dtype=np.float32)
@@ -47,6 +49,28 @@ def farthest_point_sampling(points: np.ndarray, m: int, start: int | np.ndarray 
         np.minimum(dist, d, out=dist)
         cur = dist.argmax(axis=1)
     return out[0] if single else out
+
+
+def _fps_one(x: np.ndarray, y: np.ndarray, z: np.ndarray, m: int, start: int) -> np.ndarray:
+    """:func:`farthest_point_sampling` of one cloud given as coordinate planes ``(N,)``: the same
+    arithmetic with scalar instead of fancy indexing (half the time of the batched loop)."""
+    N = len(x)
+    out = np.empty(m, dtype=np.int64)
+    dist = np.full(N, np.inf, dtype=np.float32)
+    d = np.empty(N, dtype=np.float32)
+    t = np.empty(N, dtype=np.float32)
+    cur = start
+    for i in range(m):
+        out[i] = cur
+        np.subtract(x, x[cur], out=d)
+        np.multiply(d, d, out=d)
+        for c in (y, z):
+            np.subtract(c, c[cur], out=t)
+            np.multiply(t, t, out=t)
+            d += t
+        np.minimum(dist, d, out=dist)
+        cur = int(dist.argmax())
+    return out
 
 
 def random_subset(n: int, m: int, rng: np.random.Generator) -> np.ndarray:
