@@ -68,14 +68,33 @@ def paper_row(row: tuple, label: str = "U-COPE, paper (ArtImage, GPU)") -> str:
 
 
 def training_info(card: dict) -> dict:
-    """What the page says about a model's training, from its model card."""
-    return {k: card.get(k) for k in ("steps", "batch_size", "train_time_s", "world_size", "model_size", "head", "hardware",
+    """What the page says about a model's training, from its model card. A fine-tuned model (``ucope
+    train --init``) also lists the stages it was made in, oldest first (``stages``: steps and minutes
+    each), followed through the run folders its card names (else the chain the card records)."""
+    info = {k: card.get(k) for k in ("steps", "batch_size", "train_time_s", "world_size", "model_size", "head", "hardware",
                                      "stopped_early")}
+    stages = [{"steps": card.get("steps"), "train_time_s": card.get("train_time_s")}]
+    init = card.get("initialised_from")
+    seen: set = set()
+    while init and len(stages) < 32:
+        parent = Path(init["model"]) / "model_card.json"
+        pcard = json.loads(parent.read_text()) if parent.is_file() and parent.resolve() not in seen else None
+        seen.add(parent.resolve())
+        if pcard is not None and pcard.get("steps") == init.get("steps"):
+            stages.append({"steps": pcard.get("steps"), "train_time_s": pcard.get("train_time_s")})
+            init = pcard.get("initialised_from")
+        else:
+            stages.append({"steps": init.get("steps"), "train_time_s": init.get("train_time_s")})
+            init = init.get("initialised_from")
+    if len(stages) > 1:
+        info["stages"] = stages[::-1]
+    return info
 
 
 def save_reports(src: Path, dest: Path, runs: Path | None) -> None:
     """Slim copies of the reports in ``src`` (no per-sample records), with the training figures of the
-    run each was made from (``runs/<name without _pairsN / _no_awareness / _refine>/model_card.json``)."""
+    run each was made from (``runs/<name without _pairsN / _no_awareness / _refine>/model_card.json``,
+    else the model card inside the shipped model of that name)."""
     import re
 
     dest.mkdir(parents=True, exist_ok=True)
@@ -84,8 +103,11 @@ def save_reports(src: Path, dest: Path, runs: Path | None) -> None:
         rep.pop("samples", None)
         run = re.sub(r"_(pairs\d+|no_awareness|refine)$", "", p.stem)
         card = runs / run / "model_card.json" if runs is not None else None
+        shipped = Path(__file__).resolve().parent.parent / "src" / "ucope" / "pretrained" / f"{run}.json"
         if card is not None and card.is_file():
             rep["training"] = training_info(json.loads(card.read_text()))
+        elif shipped.is_file():  # a shipped model's JSON holds its model card
+            rep["training"] = training_info(json.loads(shipped.read_text()).get("info", {}))
         tmp = dest / f".{p.name}.tmp"
         tmp.write_text(json.dumps(rep, indent=1, sort_keys=True) + "\n")
         tmp.replace(dest / p.name)
@@ -100,6 +122,13 @@ def training_line(rep: dict | None) -> str:
     n = hw.get("torch_threads", "?")
     where = f"{n} CPU thread{'' if n == 1 else 's'}" if dev == "cpu" else dev
     early = f" (stopped early: {c['stopped_early']})" if c.get("stopped_early") else ""
+    stages = c.get("stages")
+    if stages:
+        steps = " + ".join(str(s["steps"]) for s in stages)
+        minutes = sum(float(s["train_time_s"] or 0.0) for s in stages) / 60
+        n = len(stages) - 1
+        return (f"{steps} steps of batch {c['batch_size']} (a training, then {n} fine-tuning{'s' if n > 1 else ''} "
+                f"with `--init` on fresh views) in {minutes:.1f} min on {where}{early}")
     return f"{c['steps']} steps of batch {c['batch_size']} in {c['train_time_s'] / 60:.1f} min on {where}{early}"
 
 

@@ -8,6 +8,11 @@ set) and the largest change of any part's mean rotation (deg), translation (m) a
 the model's JSON (``info.fp16_check``); if it exceeds ``--max-change-deg`` / ``--max-change-m`` the
 model is stored in float32 instead. The JSON's ``info`` also carries the model card and the test-split
 figures of its ``ucope eval`` report (``info.test``), which ``ucope models`` prints.
+
+    python scripts/package_models.py --figures-only --reports work/reports [--categories ...]
+
+only refreshes the shipped models' ``info.test`` from new reports of those same models (e.g. after a
+change to the voting), leaving their weights alone.
 """
 
 from __future__ import annotations
@@ -46,6 +51,22 @@ def test_figures(rep: dict) -> dict:
     return out
 
 
+def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
+    """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``."""
+    from ucope.data.shards import atomic_write_json
+
+    for cat in cats:
+        rep = json.loads((reports / f"{cat}.json").read_text())
+        meta_path = dest / f"{cat}.json"
+        meta = json.loads(meta_path.read_text())
+        if rep.get("category") != meta["config"]["category"]:
+            raise SystemExit(f"{reports / (cat + '.json')} is a report on {rep.get('category')!r}, not {cat!r}")
+        meta["info"]["test"] = test_figures(rep)
+        atomic_write_json(meta_path, meta)
+        print(f"{cat}: test figures refreshed from {reports / (cat + '.json')}")
+    return 0
+
+
 def summary(rep: dict) -> tuple[list, list, list]:
     p = rep["parts"]
     return p["rotation_deg"]["mean"], p["translation_m"]["mean"], p["iou"]["mean"]
@@ -53,7 +74,8 @@ def summary(rep: dict) -> tuple[list, list, list]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=Path, required=True)
+    ap.add_argument("--runs", type=Path, default=None)
+    ap.add_argument("--figures-only", action="store_true", help="only refresh the shipped models' test figures from --reports")
     ap.add_argument("--reports", type=Path, required=True)
     ap.add_argument("--categories", nargs="+", default=None)
     ap.add_argument("--check-num", type=int, default=60)
@@ -61,6 +83,10 @@ def main() -> int:
     ap.add_argument("--max-change-m", type=float, default=0.002)
     args = ap.parse_args()
     dest = pretrained_dir()
+    if args.figures_only:
+        return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))])
+    if args.runs is None:
+        ap.error("--runs is required (unless --figures-only)")
     dest.mkdir(parents=True, exist_ok=True)
     cats = args.categories or [c for c in CATEGORY_NAMES if (args.runs / c / "model.json").is_file()]
     for cat in cats:

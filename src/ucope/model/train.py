@@ -505,6 +505,8 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
             init_info = read_model_json(find_model(tc.init_from)).get("info", {})
             card["initialised_from"] = {"model": str(tc.init_from), "category": init_info.get("category"),
                                         "steps": init_info.get("steps"), "train_time_s": init_info.get("train_time_s")}
+            if init_info.get("initialised_from"):  # a chain of fine-tunings: keep every stage
+                card["initialised_from"]["initialised_from"] = init_info["initialised_from"]
             card["model_size"] = init_info.get("model_size", tc.model_size)
         save_model(model, out, info=card)
         atomic_write_json(out / "model_card.json", card)
