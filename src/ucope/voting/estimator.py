@@ -10,9 +10,12 @@ Pipeline of :meth:`Estimator.predict` (timed stage by stage in ``result.timings_
 2. **encoder**: PointNet++ features, part masks and segmentation, joint heads.
 3. **pair_encoder**: ``num_pairs`` point pairs (default 20,000, as the paper), split evenly over the
    parts; with part awareness the pairs of part ``k`` are drawn from the points segmented as ``k``.
+   Every pair gets the centre, size and part-score heads; the widest heads, the axis angles and sign
+   bits, are left for the next stage to compute on the pairs that vote the axes (at most
+   ``VotingOptions.max_axis_pairs`` per part, usually a tenth of them), with identical results.
    (For the direct-regression baseline, ``ModelConfig.head == "regression"``, this stage is its pose
    regression head instead, and the next one reads the regressed poses.)
-4. **voting**: per part, centre, axes and size by voting (:mod:`ucope.voting`); per joint, pivot and
+4. **voting**: per part, centre, axes (with their heads, above) and size by voting (:mod:`ucope.voting`); per joint, pivot and
    axis from the joint heads; joint states from the part poses; optionally the kinematic refinement.
 
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
