@@ -7,7 +7,7 @@ import torch
 from ucope.errors import InputError
 from ucope.geometry.transforms import random_rotation
 from ucope.voting import choose_axis_sign, fibonacci_sphere, vote_axis
-from ucope.voting.axis import _cube_cell, cube_cell_centre
+from ucope.voting.axis import _coarse_axis, _cube_cell, cube_cell_centre
 
 from voting_support import angle_deg
 
@@ -70,6 +70,21 @@ def test_directed_cones_fix_the_sign_without_bits(rng):
     bad_bits = torch.zeros(1000)  # uninformative: all "negative"
     v, _ = choose_axis_sign(-torch.tensor(u, dtype=torch.float32), e, ang, e, bad_bits)
     assert angle_deg(v, u) < 1e-3
+
+
+def test_coarse_vote_of_several_axes_at_once_equals_one_at_a_time(rng):
+    R = random_rotation(rng)
+    e = rng.normal(size=(800, 3))
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    et = torch.tensor(e.T, dtype=torch.float32).contiguous()
+    angles = torch.tensor(np.arccos(np.clip(e @ R[:, :2], -1, 1)).T, dtype=torch.float32)  # (2, M): x and y cones
+    w = torch.ones(800)
+    both = _coarse_axis(et, angles, w, 24, 32)
+    assert both.shape == (2, 3)
+    for i in range(2):
+        one = _coarse_axis(et, angles[i], w, 24, 32)
+        assert torch.equal(both[i], one)
+        assert angle_deg(one, R[:, i]) < 3.0
 
 
 def test_sphere_and_cube_map_helpers():

@@ -188,6 +188,11 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
         vote_parts(points, normals, pair_idx, lazy_outputs, cfg, axis_heads=lambda k, rows: {"alpha_logits": outputs["alpha_logits"][0, k][rows]})
     with pytest.raises(InputError, match="mu_logits"):
         vote_parts(points, normals, pair_idx, {**outputs, "mu_logits": outputs["mu_logits"][:, :, :10]}, cfg)
+    for name in ("mu_logits", "nu_logits", "gamma", "part_score"):
+        bad = outputs[name].clone()
+        bad[0, K - 1, 5] = float("nan")
+        with pytest.raises(InputError, match="NaN"):
+            vote_parts(points, normals, pair_idx, {**outputs, name: bad}, cfg)
     with pytest.raises(InputError, match="pair_idx"):
         vote_parts(points, normals, pair_idx + len(points), outputs, cfg)
 

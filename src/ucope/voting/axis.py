@@ -118,7 +118,9 @@ def cube_cell_centre(idx: int, G: int, device=None, dtype=torch.float32) -> torc
 
 
 def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angles: int, grid: int) -> torch.Tensor:
-    """Peak of the cones' candidates binned on a cube map. ``e`` ``(3, S)``, ``angle, w`` ``(S,)``.
+    """Peak of the cones' candidates binned on a cube map. ``e`` ``(3, S)``, ``angle`` ``(S,)`` (or
+    ``(n, S)``: ``n`` axes voted by the same pairs at once, e.g. up and right), ``w`` ``(S,)``.
+    Returns ``(3,)`` (or ``(n, 3)``).
 
     Each cone gets ``num_angles`` candidates ``cos(a) e + sin(a) (cos t p + sin t q)``; a candidate
     weighs ``w * max(2 pi sin(a) / (T cell), 1 / T)`` (the arc it stands for, in cells), so each cone
@@ -126,21 +128,26 @@ def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angl
     """
     from .centre import _cross
 
-    S = e.shape[1]
+    single = angle.ndim == 1
+    ang = angle.view(1, -1) if single else angle
+    n, S = ang.shape
     use_y = e[0].abs() > 0.9
     zero = torch.zeros_like(e[0])
     p = torch.stack([torch.where(use_y, -e[2], zero), torch.where(use_y, zero, e[2]), torch.where(use_y, e[0], -e[1])])
     p = p / torch.sqrt(_dot(p, p)).clamp_min(1e-12)
     q = _cross(e, p)
-    sa, ca = torch.sin(angle), torch.cos(angle)
+    sa, ca = torch.sin(ang), torch.cos(ang)  # (n, S)
     basis = circle_basis(num_angles, e.device, e.dtype)  # (3, T)
-    A = torch.stack([p * sa, q * sa, e * ca], dim=-1)  # (3, S, 3)
-    cand = (A.reshape(3 * S, 3) @ basis).view(3, S, num_angles)
+    A = torch.stack([p[:, None] * sa, q[:, None] * sa, e[:, None] * ca], dim=-1)  # (3, n, S, 3)
+    cand = (A.reshape(3 * n * S, 3) @ basis).view(3, n, S, num_angles)
     cell = (math.pi / 2) / grid
-    cw = w * torch.clamp(sa * (2.0 * math.pi / (num_angles * cell)), min=1.0 / num_angles)
-    idx = _cube_cell(cand, grid)
-    votes = torch.bincount(idx.reshape(-1), weights=cw.unsqueeze(-1).expand(-1, num_angles).reshape(-1), minlength=6 * grid * grid)
-    return cube_cell_centre(int(votes.argmax()), grid, device=e.device, dtype=e.dtype)
+    cells = 6 * grid * grid
+    cw = w * torch.clamp(sa * (2.0 * math.pi / (num_angles * cell)), min=1.0 / num_angles)  # (n, S)
+    idx = _cube_cell(cand, grid) + (torch.arange(n, device=e.device) * cells).view(n, 1, 1)
+    votes = torch.bincount(idx.reshape(-1), weights=cw.unsqueeze(-1).expand(-1, -1, num_angles).reshape(-1), minlength=n * cells)
+    peaks = votes.view(n, cells).argmax(1).tolist()
+    out = torch.stack([cube_cell_centre(k, grid, device=e.device, dtype=e.dtype) for k in peaks])  # a handful
+    return out[0] if single else out
 
 
 def _sphere_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, dirs: torch.Tensor, tol: float) -> torch.Tensor:
@@ -254,22 +261,28 @@ def vote_axis(
     )
 
 
-def _vote_axis(et, angle, w, method, num_angles, grid, num_directions, tol_deg, min_tol_deg, refine_iters, max_coarse_pairs, max_refine_pairs):
-    """:func:`vote_axis` on checked coordinate-major unit directions ``et`` ``(3, M)``."""
+def _vote_axis(et, angle, w, method, num_angles, grid, num_directions, tol_deg, min_tol_deg, refine_iters, max_coarse_pairs, max_refine_pairs,
+               coarse=None, inliers: bool = True):
+    """:func:`vote_axis` on checked coordinate-major unit directions ``et`` ``(3, M)``; ``coarse``: the
+    coarse direction if already voted (:func:`_coarse_axis` of several axes at once); ``inliers=False``
+    returns ``None`` for them."""
     dev = et.device
     tol = math.radians(tol_deg)
     tol_min = min(math.radians(min_tol_deg), tol)
     sel = torch.nonzero(w > 0).squeeze(-1)
     cs = strided(sel, max_coarse_pairs)
-    if method == "cubemap":
+    if coarse is not None:
+        u = coarse
+    elif method == "cubemap":
         u = _coarse_axis(et[:, cs], angle[cs], w[cs], num_angles, grid)
     else:
         u = _sphere_axis(et[:, cs], angle[cs], w[cs], fibonacci_sphere(num_directions, device=dev, dtype=et.dtype), tol)
     rs = strided(sel, max_refine_pairs)
     u64 = _refine_axis(_np64(u), _np64(et[:, rs]), _np64(angle[rs]), _np64(w[rs]), tol, tol_min, refine_iters, tol)
     u = torch.as_tensor(u64, dtype=et.dtype, device=dev)
-    inliers = (axis_residual(u, et, angle) < tol) & (w > 0)
-    return u, inliers
+    if not inliers:
+        return u, None
+    return u, (axis_residual(u, et, angle) < tol) & (w > 0)
 
 
 def choose_axis_sign(

@@ -45,8 +45,8 @@ import torch
 from ..errors import InputError
 from ..model.config import ModelConfig
 from ..model.network import AXIS_HEADS
-from ._checks import strided, tensor
-from .axis import _choose_sign, _vote_axis
+from ._checks import as_tensor, strided, tensor
+from .axis import _choose_sign, _coarse_axis, _vote_axis
 from .bins import decode_bins
 from .centre import DEFAULT_CELL_FRACTION, _vote_centre
 from .rotation import _refine_rotation, rotation_from_axes
@@ -232,12 +232,16 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     axis_args = ("cubemap", int(opt.axis_num_angles), int(opt.axis_grid), 0, float(opt.axis_tol_deg), 0.2, 6, int(opt.max_coarse_pairs), len(ax))
     al_l, be_l, sg_l = axis_logits(gi)
     alpha = decode_bins(al_l, 0.0, math.pi, opt.window)
-    up, _ = _vote_axis(e_ax, alpha, ones, *axis_args)
+    beta = None if symmetric else decode_bins(be_l, 0.0, math.pi, opt.window)
+    # The coarse vote of both axes at once (the same pairs and cone bases; one cube-map histogram).
+    cs = strided(torch.arange(len(ax), device=dev), int(opt.max_coarse_pairs))
+    coarse = _coarse_axis(e_ax[:, cs], alpha[cs] if symmetric else torch.stack([alpha[cs], beta[cs]]), ones[cs],
+                          int(opt.axis_num_angles), int(opt.axis_grid))
+    up, _ = _vote_axis(e_ax, alpha, ones, *axis_args, coarse=coarse if symmetric else coarse[0], inliers=False)
     up, _ = _choose_sign(up, e_ax, alpha, n_ax, sg_l[:, 0], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
-    right = beta = None
+    right = None
     if not symmetric:
-        beta = decode_bins(be_l, 0.0, math.pi, opt.window)
-        right, _ = _vote_axis(e_ax, beta, ones, *axis_args)
+        right, _ = _vote_axis(e_ax, beta, ones, *axis_args, coarse=coarse[1], inliers=False)
         right, _ = _choose_sign(right, e_ax, beta, n_ax, sg_l[:, 1], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
     t3 = time.perf_counter()
     # 5. Rotation. Both axes voted onto (nearly) one direction happens on garbage votes: take y alone
@@ -339,7 +343,10 @@ def vote_parts(
     for name in names:
         if name not in outputs:
             raise InputError(f"outputs lack {name!r} (run the network with pair_idx)")
-        x = tensor(outputs[name], name, (None,) * np.ndim(outputs[name]), device=pts.device)
+        if name in ("mu_logits", "nu_logits"):  # NaN / inf logits surface in decode_bins' check of its values
+            x = as_tensor(outputs[name], name, device=pts.device)
+        else:
+            x = tensor(outputs[name], name, (None,) * np.ndim(outputs[name]), device=pts.device)
         want = 3 if name == "part_score" else 4
         if x.ndim == want:
             x = _one(x, name)
