@@ -109,7 +109,7 @@ class UCOPENet(nn.Module):
         }
         self.pair_point = nn.Linear(C, 2 * H, bias=False)  # [W_a F_i ; W_b F_j], applied per point
         self.pair_geo = nn.Linear(4 + K, H)  # PPF + part one-hot, with the first layer's bias
-        self.pair_mlp = nn.Sequential(nn.ReLU(inplace=False), nn.Linear(H, H), nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True))
+        self.pair_mlp = nn.Sequential(nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True))
         self.pair_out = PerGroupLinear(K, H, sum(self.out_sizes.values()))
 
     # ------------------------------------------------------------------------------------------ forward
@@ -165,20 +165,24 @@ class UCOPENet(nn.Module):
         # part k's pair (i, j) takes pa[k, i] + pb[k, j].
         proj = self.pair_point(f1)  # (B, N, 2H)
         mk = masks.permute(0, 2, 1).unsqueeze(-1)  # (B, K, N, 1)
-        pa = (mk * proj[:, None, :, :H]).reshape(B * K * N, H)
+        # pair_geo of [PPF, part one-hot] = PPF W_g^T + (W_onehot[:, k] + bias): the part's constant
+        # is added to its point rows once, before the gather, instead of to every pair.
+        W = self.pair_geo.weight  # (H, 4 + K)
+        part_const = (W[:, 4:].T + self.pair_geo.bias).view(1, K, 1, H)
+        pa = (mk * proj[:, None, :, :H] + part_const).reshape(B * K * N, H)
         pb = (mk * proj[:, None, :, H:]).reshape(B * K * N, H)
         offs = (torch.arange(B * K, device=points.device) * N).view(B, K, 1)  # row of (b, k, point 0)
         ia = (pair_idx[..., 0] + offs).reshape(-1)
         ib = (pair_idx[..., 1] + offs).reshape(-1)
-        h = (pa.index_select(0, ia) + pb.index_select(0, ib)).reshape(B, K, M, H)
         flat = pair_idx.reshape(B, K * M * 2)
         bidx = torch.arange(B, device=points.device)[:, None]
         pts = points[bidx, flat].reshape(B, K, M, 2, 3)
         nrm = normals[bidx, flat].reshape(B, K, M, 2, 3)
         geo = pair_features(pts[..., 0, :], pts[..., 1, :], nrm[..., 0, :], nrm[..., 1, :], self.norm_scale)
-        onehot = torch.eye(K, device=points.device, dtype=geo.dtype)[None, :, None, :].expand(B, K, M, K)
-        h = h + self.pair_geo(torch.cat([geo, onehot], dim=-1))
-        h = self.pair_mlp(h)
+        h = pa.index_select(0, ia)  # (B K M, H), in place from here: one buffer instead of four
+        h += pb.index_select(0, ib)
+        h.addmm_(geo.reshape(-1, 4), W[:, :4].T)
+        h = self.pair_mlp(h.view(B, K, M, H))
         out = self.pair_outputs(h, heads)
         if return_hidden:
             out["pair_hidden"] = h
