@@ -68,7 +68,7 @@ def fibonacci_sphere(n: int, device=None, dtype=torch.float32) -> torch.Tensor:
 def axis_residual(u: torch.Tensor, e: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
     """``(M,)`` directed angle residual ``|acos(e_i . u) - angle_i|`` (radians) of axis ``u`` ``(3,)``
     for pair directions ``e`` ``(3, M)`` (coordinate-major) and angles ``(M,)``."""
-    x = (u.view(3, 1) * e).sum(0).clamp(-1.0, 1.0)
+    x = (u @ e).clamp(-1.0, 1.0)
     return (torch.arccos(x) - angle).abs()
 
 
@@ -330,14 +330,14 @@ def choose_axis_sign(
 def _choose_sign(u, et, angle, nt, lg, inl, tol_deg: float, margin: float, use_sign_bits: bool) -> tuple[torch.Tensor, int]:
     """:func:`choose_axis_sign` on checked coordinate-major ``et, nt`` ``(3, M)``."""
     nt = torch.where(_dot(nt, et) < 0, -nt, nt)
-    x = (u.view(3, 1) * et).sum(0).clamp(-1.0, 1.0)
+    x = (u @ et).clamp(-1.0, 1.0)
     tol = math.radians(tol_deg)
     a_plus = torch.arccos(x)
     score_p = ((a_plus - angle).abs() < tol) & inl
     score_m = ((math.pi - a_plus - angle).abs() < tol) & inl
     sp, sm = int(score_p.sum()), int(score_m.sum())
     if use_sign_bits:
-        nu_ = (u.view(3, 1) * nt).sum(0)
+        nu_ = u @ nt
         informative = inl & (nu_.abs() > margin)
         bit = lg > 0
         sp += int((informative & (bit == (nu_ > 0))).sum())
