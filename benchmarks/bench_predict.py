@@ -23,8 +23,8 @@ from ucope.voting.estimator import Estimator
 STAGES = ("preprocess", "encoder", "pair_encoder", "voting", "total")
 
 
-def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool = False) -> dict:
-    est = Estimator.load(model, num_pairs=pairs, refine=refine)
+def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool | None = None) -> dict:
+    est = Estimator.load(model, num_pairs=pairs, refine=refine)  # None: the model's default
     gen = GenerateConfig(category=est.category, split="test", num=repeats, views_per_instance=1)
     samples = [make_sample(gen, i) for i in range(repeats)]
     est.predict(samples[0]["points"], samples[0]["normals"])  # warm-up
@@ -34,7 +34,7 @@ def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool = Fa
         rows.append(r.timings_ms)
     med = {k: statistics.median(r[k] for r in rows) for k in STAGES}
     return {"model": model, "category": est.category, "num_parts": est.cfg.num_parts, "num_points": est.cfg.num_points,
-            "pairs": pairs, "normals_given": normals, "refine": refine, "median_ms": med,
+            "pairs": pairs, "normals_given": normals, "refine": est.refine, "median_ms": med,
             "max_total_ms": max(r["total"] for r in rows), "repeats": repeats}
 
 

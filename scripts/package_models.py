@@ -13,6 +13,12 @@ figures of its ``ucope eval`` report (``info.test``), which ``ucope models`` pri
 
 only refreshes the shipped models' ``info.test`` from new reports of those same models (e.g. after a
 change to the voting), leaving their weights alone.
+
+Both modes also set the model's default for the kinematic refinement (``info.defaults.refine``, which
+``Estimator.load`` and the command line take unless told otherwise) from the reports
+``<cat>_norefine.json`` and ``<cat>_refine.json`` (``ucope eval --no-refine`` / ``--refine``) when
+both exist: on when it lowers the summed mean rotation error, keeps every part's 10deg10cm fraction
+and costs no part more than one point of mean 3D IoU (:func:`refine_default`).
 """
 
 from __future__ import annotations
@@ -51,6 +57,24 @@ def test_figures(rep: dict) -> dict:
     return out
 
 
+def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
+    """Whether the kinematic refinement should be on by default, from two reports of one model on the
+    same views (refinement off / on): see the module docstring."""
+    po, pn = off["parts"], on["parts"]
+    better_rot = sum(pn["rotation_deg"]["mean"]) < sum(po["rotation_deg"]["mean"])
+    keeps_10 = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"]))
+    keeps_iou = all(b >= a - max_iou_loss for a, b in zip(po["iou"]["mean"], pn["iou"]["mean"]))
+    return bool(better_rot and keeps_10 and keeps_iou)
+
+
+def set_defaults(info: dict, reports: Path, cat: str) -> None:
+    """``info["defaults"]`` from the refine-off / refine-on reports of ``cat``, if both exist."""
+    off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
+    if off.is_file() and on.is_file():
+        info["defaults"] = {"refine": refine_default(json.loads(off.read_text()), json.loads(on.read_text())),
+                            "decided_from": [off.name, on.name]}
+
+
 def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``."""
     from ucope.data.shards import atomic_write_json
@@ -62,8 +86,9 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
         if rep.get("category") != meta["config"]["category"]:
             raise SystemExit(f"{reports / (cat + '.json')} is a report on {rep.get('category')!r}, not {cat!r}")
         meta["info"]["test"] = test_figures(rep)
+        set_defaults(meta["info"], reports, cat)
         atomic_write_json(meta_path, meta)
-        print(f"{cat}: test figures refreshed from {reports / (cat + '.json')}")
+        print(f"{cat}: test figures refreshed from {reports / (cat + '.json')}; defaults {meta['info'].get('defaults')}")
     return 0
 
 
@@ -105,6 +130,7 @@ def main() -> int:
         fp16_ok = change[0] <= args.max_change_deg and change[1] <= args.max_change_m
         info = dict(meta.get("info", {}))
         info["test"] = test_figures(rep)
+        set_defaults(info, args.reports, cat)
         info["fp16_check"] = {"num_samples": n, "max_change_rotation_deg": change[0], "max_change_translation_m": change[1],
                               "max_change_iou": change[2], "stored_as": "float16" if fp16_ok else "float32"}
         out = save_model(model, dest / f"{cat}.json", info=info, dtype="float16" if fp16_ok else "float32")

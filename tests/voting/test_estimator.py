@@ -180,3 +180,31 @@ def test_shipped_name_is_not_hidden_by_a_folder_of_that_name(tmp_path, monkeypat
     (tmp_path / "laptop").mkdir()  # e.g. a data folder
     est = Estimator.load("laptop")
     assert est.name == "laptop" and est.category == "laptop"
+
+
+def test_refinement_default_comes_from_the_model(tiny_run, tmp_path, sample):
+    """``refine=None`` (the default of load and of the command line) takes ``info.defaults.refine`` of the
+    model's JSON; an explicit value wins."""
+    assert Estimator.load(tiny_run).refine is False  # no defaults recorded: off
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    meta = json.loads((run / "model.json").read_text())
+    meta.setdefault("info", {})["defaults"] = {"refine": True}
+    (run / "model.json").write_text(json.dumps(meta))
+    assert Estimator.load(run).refine is True
+    assert Estimator.load(run, refine=False).refine is False
+    out = tmp_path / "r.json"
+    np.save(tmp_path / "cloud.npy", sample["points"])
+    assert main(["predict", "--model", str(run), "--input", str(tmp_path / "cloud.npy"), "--out", str(out), "--no-refine", "--quiet"]) == 0
+    assert main(["predict", "--model", str(run), "--input", str(tmp_path / "cloud.npy"), "--out", str(out), "--quiet"]) == 0
+
+
+@pytest.mark.parametrize("name, on", [("eyeglasses", True), ("drawer", True), ("laptop", False), ("mug", False)])
+def test_shipped_models_carry_their_measured_refinement_default(name, on):
+    from ucope.voting.estimator import list_pretrained
+
+    if name not in list_pretrained():
+        pytest.skip("model not shipped")
+    assert Estimator.load(name).refine is on

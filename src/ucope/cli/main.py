@@ -296,7 +296,9 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
     """The options of :func:`_estimator` (shared by predict and eval)."""
     p.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
     p.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
-    p.add_argument("--refine", action="store_true", help="kinematic refinement of the part poses")
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
+                   help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
+                        "eyeglasses, drawer, dishwasher and scissors models have it on)")
     p.add_argument("--keep-flips", action="store_true", help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -114,7 +114,8 @@ class Estimator:
         awareness: part awareness (only pairs with part score > 0.5 vote for a part, pairs drawn from
             the segmented part) and joint awareness (only points with joint score and heatmap > 0.5
             locate a joint); ``False`` for the ablation.
-        refine: the kinematic refinement (off by default: see docs/results.md for its measured effect).
+        refine: the kinematic refinement (off here; :meth:`load` takes the model's default, see
+            docs/results.md for its measured effect).
         resolve_flips: turn back parts whose rotation is a half turn away from what their revolute
             joint allows (:func:`ucope.voting.kinematic.resolve_joint_flips`) and rigid objects whose
             rotation is a half turn away from what their shape fits
@@ -142,12 +143,19 @@ class Estimator:
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
-    def load(cls, model: str | os.PathLike, **kwargs) -> "Estimator":
+    def load(cls, model: str | os.PathLike, refine: bool | None = None, **kwargs) -> "Estimator":
         """An estimator from a run folder / model JSON path, or the name of a shipped model
-        (``Estimator.load("laptop")``; :func:`list_pretrained` lists them)."""
+        (``Estimator.load("laptop")``; :func:`list_pretrained` lists them).
+
+        ``refine=None`` takes the model's own default (``info.defaults.refine`` of its JSON, set when it
+        was packaged where the refinement measured better: the shipped eyeglasses, drawer, dishwasher
+        and scissors models; off otherwise). Other keyword arguments: as the constructor."""
         path = find_model(model)
-        net, _ = load_model(path)
-        return cls(net, name=str(Path(model)), **kwargs)
+        net, meta = load_model(path)
+        if refine is None:
+            defaults = (meta.get("info") or {}).get("defaults") or {}
+            refine = bool(defaults.get("refine", False))
+        return cls(net, name=str(Path(model)), refine=refine, **kwargs)
 
     @property
     def category(self) -> str:
