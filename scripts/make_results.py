@@ -291,7 +291,7 @@ def main() -> int:
                 "| model | K | pairs | normals | preprocess | encoder | pair encoder | voting | total (ms) |", "|---|---|---|---|---|---|---|---|---|"]
         for r in b["results"]:
             m = r["median_ms"]
-            out.append(f"| {r['category']} | {r['num_parts']} | {r['pairs']:,} | {'given' if r['normals_given'] else 'estimated'} | "
+            out.append(f"| {r['category']}{' (refine)' if r.get('refine') else ''} | {r['num_parts']} | {r['pairs']:,} | {'given' if r['normals_given'] else 'estimated'} | "
                        f"{m['preprocess']:.1f} | {m['encoder']:.1f} | {m['pair_encoder']:.1f} | {m['voting']:.1f} | **{m['total']:.1f}** |")
         out.append("")
     if bt.is_file():
