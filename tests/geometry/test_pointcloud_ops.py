@@ -61,6 +61,8 @@ def test_normals_of_a_plane_face_the_camera(rng):
     n = estimate_normals(pts, k=12)
     assert np.all(n @ n_true > 0.999)
     assert np.all((n * (-pts)).sum(1) > 0)  # oriented towards the camera at the origin
+    rows = rng.choice(len(pts), 100, replace=False)  # some rows only: the same normals as in the full result
+    np.testing.assert_array_equal(estimate_normals(pts, k=12, rows=rows), n[rows])
 
 
 def test_normals_of_a_sphere(rng):

@@ -51,7 +51,7 @@ def smallest_eigenvectors_sym3(cov: np.ndarray) -> np.ndarray:
 
 
 def estimate_normals(
-    points: np.ndarray, k: int = 16, viewpoint: np.ndarray | None = (0.0, 0.0, 0.0), workers: int = 1
+    points: np.ndarray, k: int = 16, viewpoint: np.ndarray | None = (0.0, 0.0, 0.0), workers: int = 1, rows=None
 ) -> np.ndarray:
     """Unit normals of a ``(N, 3)`` cloud by PCA over each point's ``k`` nearest neighbours.
 
@@ -63,9 +63,11 @@ def estimate_normals(
         points: ``(N, 3)`` metres, N >= 3.
         k: neighbourhood size (clipped to N).
         workers: threads for the KD-tree query.
+        rows: optional indices of the points whose normals are wanted (their neighbours are still
+            searched in the whole cloud, so each is the same as in the full result).
 
     Returns:
-        ``(N, 3)`` float32 unit normals.
+        ``(N, 3)`` float32 unit normals (``(len(rows), 3)`` with ``rows``).
     """
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3:
@@ -75,12 +77,13 @@ def estimate_normals(
     if not np.all(np.isfinite(pts)):
         raise InputError("points contain NaN or Inf")
     k = int(min(max(k, 3), len(pts)))
-    _, idx = cKDTree(pts).query(pts, k=k, workers=workers)
+    query = pts if rows is None else pts[np.asarray(rows, dtype=np.int64)]
+    _, idx = cKDTree(pts).query(query, k=k, workers=workers)
     nb = pts[idx]  # (N, k, 3)
     nb = nb - nb.mean(axis=1, keepdims=True)
     cov = nb.transpose(0, 2, 1) @ nb  # (N, 3, 3)
     normals = smallest_eigenvectors_sym3(cov)
     if viewpoint is not None:
-        flip = ((np.asarray(viewpoint, np.float64) - pts) * normals).sum(-1) < 0
+        flip = ((np.asarray(viewpoint, np.float64) - query) * normals).sum(-1) < 0
         normals[flip] *= -1.0
     return normals.astype(np.float32)

@@ -45,19 +45,25 @@ __all__ = ["Estimator", "MIN_POINTS", "prepare_points", "rgbd_points", "pretrain
 MIN_POINTS = 32
 """The fewest finite points :meth:`Estimator.predict` accepts."""
 
+NORMAL_K = 16
+"""Neighbours of the kNN-PCA normals estimated for clouds given without normals."""
+
 JOINT_TYPE_NAMES = ("revolute", "prismatic")
 
 VOTE_HEADS = ("mu_logits", "nu_logits", "gamma", "part_score")
 """The pair heads computed for every sampled pair (the axis heads only for the pairs voting the axes)."""
 
 
-def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = NORMAL_K,
+                   estimate: bool = True) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
     """Validate and clean a cloud for the network.
 
     Args:
         points: ``(N, 3)`` camera frame, metres (any float dtype, numpy / torch / sequence).
         normals: optional ``(N, 3)`` (any sign; re-normalised); estimated when ``None``.
         max_points: clouds above this are subsampled uniformly (from ``seed``) before anything else.
+        estimate: ``False`` leaves missing normals to the caller (``nrm`` is then ``None``; the
+            estimator estimates them for the network's subset only).
 
     Returns:
         ``(pts, nrm, raw, finite)``: float32 ``(P, 3)`` points and unit normals (``P <= max_points``),
@@ -97,7 +103,7 @@ def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, 
     if float(np.ptp(p, axis=0).max()) < 1e-6:
         raise InputError("all points coincide: the cloud has no extent")
     if nrm is None:
-        n = estimate_normals(p, k=normal_k)
+        n = estimate_normals(p, k=normal_k) if estimate else None
     else:
         n = nrm[kept].astype(np.float32)
         n /= np.linalg.norm(n, axis=1, keepdims=True)
@@ -173,11 +179,13 @@ class Estimator:
             a :class:`PoseResult` (``part_labels`` has one entry per input point, -1 for dropped ones).
         """
         t0 = time.perf_counter()
-        pts, nrm, raw, finite = prepare_points(points, normals, self.max_input_points, self.seed)
+        pts, nrm, raw, finite = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False)
         cfg = self.cfg
         rng = np.random.default_rng(np.random.SeedSequence(entropy=self.seed, spawn_key=(2,)))
         sub = random_subset(len(pts), cfg.num_points, rng)
-        p_net, n_net = pts[sub], nrm[sub]
+        p_net = pts[sub]
+        # Missing normals: only the network's points need them (neighbours still from the whole cloud).
+        n_net = estimate_normals(pts, k=NORMAL_K, rows=sub) if nrm is None else nrm[sub]
         fps = [torch.from_numpy(f)[None].to(self.device) for f in numpy_fps_indices(p_net, cfg.encoder.npoints)]
         P = torch.from_numpy(p_net)[None].to(self.device)
         Nn = torch.from_numpy(n_net)[None].to(self.device)
