@@ -119,9 +119,15 @@ def cmd_models(args: argparse.Namespace) -> int:
         test = info.get("test", {})
         w = meta["weights"]
         joints = ", ".join(("revolute", "prismatic")[t] for t in cfg["joint_types"]) or "rigid"
+        steps, stage = [info.get("steps", "?")], info.get("initialised_from")
+        while stage:  # a fine-tuned model: every stage, oldest first
+            steps.insert(0, stage.get("steps", "?"))
+            stage = stage.get("initialised_from")
+        tuned = f" ({len(steps) - 1} fine-tuning stage{'s' if len(steps) > 2 else ''})" if len(steps) > 1 else ""
+        refine = " kinematic refinement on by default;" if (info.get("defaults") or {}).get("refine") else ""
         print(f"{name}: {len(cfg['part_names'])} part(s) ({', '.join(cfg['part_names'])}); {joints}; "
-              f"{cfg['head']} head; {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
-              f"trained {info.get('steps', '?')} steps")
+              f"{cfg['head']} head;{refine} {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
+              f"trained {' + '.join(str(x) for x in steps)} steps{tuned}")
         if test:
             line = (f"  test split ({test.get('num_samples')} unseen views): rotation {_fmt_list(test.get('rotation_deg_mean'), '{:.1f}')} deg, "
                     f"translation {_fmt_list(test.get('translation_m_mean'), '{:.3f}')} m, IoU {_fmt_list(test.get('iou_mean'), '{:.2f}')}")
