@@ -65,7 +65,8 @@ category_args() {  # category_args CATEGORY
 
 # Fine-tuning stages after the recipe's training, for the categories that were below the sanity bar
 # (each stage on 1 CPU thread, two or three trainings sharing the 2-core machine: eyeglasses 22 + 29 +
-# 10 min, drawer 31 + 34 min, camera 17 + 19 min; the model cards hold each stage's time):
+# 10 min, drawer 31 + 34 min, camera 17 + 19 min; laptop_rigid 11 + 10 min alone on the machine; the model
+# cards hold each stage's time):
 # "VIEWS SEED STEPS LR" per stage (separated by ';'), each starting from the previous stage's model
 # (`ucope train --init`) on a training set of its own (VIEWS views from data seed SEED), learning rate
 # x0.1 at 80% of its steps. The last stage is the shipped model; the recipe's run is kept as
@@ -74,7 +75,7 @@ finetune_stages() {  # finetune_stages CATEGORY
   case $1 in
     eyeglasses) echo "6000 0 5000 5e-4;6000 1 5000 3e-4;4000 2 3000 2e-4" ;;
     drawer) echo "6000 0 6000 5e-4;6000 1 6000 3e-4" ;;
-    camera) echo "6000 0 5000 5e-4;6000 1 5000 3e-4" ;;
+    camera|laptop_rigid) echo "6000 0 5000 5e-4;6000 1 5000 3e-4" ;;
     *) echo "" ;;
   esac
 }
