@@ -330,6 +330,7 @@ def _vote_centre(
     # 3. Mirror ambiguity: if the pair points are (nearly) coplanar, every circle is symmetric about
     # their plane and the centre's mirror image fits as well. Try it; if it fits about as well, keep
     # the one behind the surface as seen from the viewpoint (a visible face has the box behind it).
+    near = None  # circles within tol0 of the returned centre, when already computed
     if viewpoint is not None and refine_iters > 0:
         pts = _np64(at[:, rs])
         m = pts.mean(1)
@@ -339,13 +340,17 @@ def _vote_centre(
         if abs(h) > tol_min:
             c2_64 = _refine_centre(c64 - 2.0 * h * n, fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
             c2 = torch.as_tensor(c2_64, dtype=at.dtype, device=dev)
-            s1 = float((w * (circle_distance(c, f, e, nu) < tol0)).sum())  # support among all voting pairs
-            s2 = float((w * (circle_distance(c2, f, e, nu) < tol0)).sum())
+            near1 = circle_distance(c, f, e, nu) < tol0
+            near2 = circle_distance(c2, f, e, nu) < tol0
+            s1 = float((w * near1).sum())  # support among all voting pairs
+            s2 = float((w * near2).sum())
+            near = near1
             if s2 > s1 / mirror_ratio:
-                c = c2
+                c, near = c2, near2
             elif s2 >= mirror_ratio * s1:  # ambiguous: the candidate farther behind the surface
                 toward_view = np.asarray(viewpoint, dtype=np.float64) - m
                 if float((c2_64 - c64) @ toward_view) < 0:
-                    c = c2
-    inliers = (circle_distance(c, f, e, nu) < tol0) & (w > 0)
-    return c, inliers, e
+                    c, near = c2, near2
+    if near is None:
+        near = circle_distance(c, f, e, nu) < tol0
+    return c, near & (w > 0), e
