@@ -204,25 +204,21 @@ class UCOPENet(nn.Module):
         unknown = set(heads or ()) - set(self.out_sizes)
         if unknown:
             raise InputError(f"unknown pair heads {sorted(unknown)} (known: {list(self.out_sizes)})")
-        starts, start = {}, 0
+        starts, start = {}, 0  # each head's first column in the full output layer
         for name, n in self.out_sizes.items():
-            starts[name] = (start, n)
+            starts[name] = start
             start += n
         if part is None and len(names) == len(self.out_sizes):
             y = self.pair_out(hidden)
-            cols = {n: (starts[n][0], starts[n][1]) for n in names}
         else:
-            idx = torch.cat([torch.arange(starts[n][0], starts[n][0] + starts[n][1]) for n in names]).to(hidden.device)
+            idx = torch.cat([torch.arange(starts[n], starts[n] + self.out_sizes[n]) for n in names]).to(hidden.device)
             w, b = self.pair_out.weight.index_select(-1, idx), self.pair_out.bias.index_select(-1, idx)
-            if part is None:
-                y = per_group_linear(hidden, w, b)
-            else:
-                y = torch.addmm(b[part], hidden, w[part])
-            cols, start = {}, 0
+            y = per_group_linear(hidden, w, b) if part is None else torch.addmm(b[part], hidden, w[part])
+            start = 0  # the selected heads' columns, packed in order
             for n in names:
-                cols[n] = (start, starts[n][1])
-                start += starts[n][1]
-        out = {n: y[..., a : a + k] for n, (a, k) in cols.items()}
+                starts[n] = start
+                start += self.out_sizes[n]
+        out = {n: y[..., starts[n] : starts[n] + self.out_sizes[n]] for n in names}
         if "part_score" in out:
             out["part_score"] = out["part_score"].squeeze(-1)
         return out

@@ -38,7 +38,7 @@ import torch
 
 from ..errors import InputError
 from ._checks import strided, tensor
-from .centre import _cross3, _dot, _median, _np64, circle_basis
+from .centre import _cross3, _dot, _median, _np64, circle_basis, perpendicular_basis
 
 __all__ = ["fibonacci_sphere", "vote_axis", "choose_axis_sign", "axis_residual", "cube_cell_centre"]
 
@@ -126,16 +126,10 @@ def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angl
     weighs ``w * max(2 pi sin(a) / (T cell), 1 / T)`` (the arc it stands for, in cells), so each cone
     adds about ``w`` to every cell it crosses.
     """
-    from .centre import _cross
-
     single = angle.ndim == 1
     ang = angle.view(1, -1) if single else angle
     n, S = ang.shape
-    use_y = e[0].abs() > 0.9
-    zero = torch.zeros_like(e[0])
-    p = torch.stack([torch.where(use_y, -e[2], zero), torch.where(use_y, zero, e[2]), torch.where(use_y, e[0], -e[1])])
-    p = p / torch.sqrt(_dot(p, p)).clamp_min(1e-12)
-    q = _cross(e, p)
+    p, q = perpendicular_basis(e)
     sa, ca = torch.sin(ang), torch.cos(ang)  # (n, S)
     basis = circle_basis(num_angles, e.device, e.dtype)  # (3, T)
     A = torch.stack([p[:, None] * sa, q[:, None] * sa, e[:, None] * ca], dim=-1)  # (3, n, S, 3)

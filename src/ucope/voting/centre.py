@@ -49,7 +49,7 @@ import torch
 from ..errors import InputError
 from ._checks import strided, tensor
 
-__all__ = ["vote_centre", "circle_candidates", "circle_distance", "pair_frames", "DEFAULT_CELL_FRACTION"]
+__all__ = ["vote_centre", "circle_candidates", "circle_distance", "pair_frames", "perpendicular_basis", "DEFAULT_CELL_FRACTION"]
 
 DEFAULT_CELL_FRACTION = 1.0 / 20.0
 """Default grid cell as a fraction of the part's vote range ``V``."""
@@ -80,13 +80,19 @@ def pair_frames(a: torch.Tensor, b: torch.Tensor, mu: torch.Tensor) -> tuple[tor
     valid = dist > 1e-9
     e = d / dist.clamp_min(1e-9)
     f = a - mu * e
-    # p = e x ref, with ref = x unless e is close to x, then y (deterministic).
+    p, q = perpendicular_basis(e)
+    return e, f, p, q, valid
+
+
+def perpendicular_basis(e: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per unit direction, an orthonormal basis ``p, q`` of the plane normal to it (``e x p = q``):
+    ``p = e x ref`` normalised, with ``ref = x`` unless ``e`` is close to ``x``, then ``y``
+    (deterministic). Shapes: ``e`` ``(3, M)`` coordinate-major -> ``p, q`` ``(3, M)``."""
     use_y = e[0].abs() > 0.9
     zero = torch.zeros_like(e[0])
     p = torch.stack([torch.where(use_y, -e[2], zero), torch.where(use_y, zero, e[2]), torch.where(use_y, e[0], -e[1])])
     p = p / torch.sqrt(_dot(p, p)).clamp_min(1e-12)
-    q = _cross(e, p)
-    return e, f, p, q, valid
+    return p, _cross(e, p)
 
 
 @functools.lru_cache(maxsize=16)

@@ -179,7 +179,7 @@ def vote_part(
 
     mu = decode_bins(mu_l, -V, V, opt.window)
     nu = decode_bins(nu_l, 0.0, V, opt.window)
-    return _vote_part(a, b, n_a, mu, nu, lambda gi: (al_l[gi], be_l[gi], sg_l[gi]), gam, torch.sigmoid(ps), V, mean_size,
+    return _vote_part(a, b, n_a, mu, nu, functools.partial(_rows, (al_l, be_l, sg_l)), gam, torch.sigmoid(ps), V, mean_size,
                       symmetric, awareness, opt, t0)
 
 
