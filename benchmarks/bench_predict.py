@@ -18,7 +18,7 @@ from pathlib import Path
 import torch
 
 from ucope.data.generate import GenerateConfig, make_sample
-from ucope.voting.estimator import Estimator
+from ucope.estimation import Estimator
 
 STAGES = ("preprocess", "encoder", "pair_encoder", "voting", "total")
 

@@ -36,7 +36,8 @@ from ucope.data.dataset import load_dataset  # noqa: E402
 from ucope.eval.evaluate import evaluate  # noqa: E402
 from ucope.model.checkpoint import load_model, save_model  # noqa: E402
 from ucope.objects.categories import CATEGORY_NAMES  # noqa: E402
-from ucope.voting.estimator import Estimator, pretrained_dir  # noqa: E402
+from ucope.estimation import Estimator  # noqa: E402
+from ucope.model.checkpoint import pretrained_dir  # noqa: E402
 
 
 def test_figures(rep: dict) -> dict:

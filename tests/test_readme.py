@@ -21,7 +21,7 @@ import trimesh
 
 from ucope.cli.main import main
 from ucope.data.generate import GenerateConfig, make_sample
-from ucope.voting.estimator import list_pretrained
+from ucope.model.checkpoint import list_pretrained
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 

@@ -13,7 +13,8 @@ from ucope.data.generate import GenerateConfig, make_sample
 from ucope.eval.evaluate import sample_errors
 from ucope.model.checkpoint import read_model_json
 from ucope.objects.categories import CATEGORY_NAMES
-from ucope.voting.estimator import Estimator, list_pretrained, pretrained_dir
+from ucope.estimation import Estimator
+from ucope.model.checkpoint import list_pretrained, pretrained_dir
 
 
 def test_every_category_ships_a_small_model():

@@ -12,7 +12,7 @@ from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.eval.evaluate import EVAL_FORMAT, evaluate, format_report, mug_handle_visible, sample_errors
 from ucope.model.config import ModelConfig, compute_category_stats
-from ucope.voting.result import JointEstimate, PartEstimate, PoseResult
+from ucope.estimation.result import JointEstimate, PartEstimate, PoseResult
 
 
 @functools.lru_cache(maxsize=None)

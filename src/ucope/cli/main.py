@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import __version__
+from ..versions import __version__
 from ..errors import UcopeError
 
 __all__ = ["main", "build_parser"]
@@ -76,10 +76,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     from ..data.generate import GenerateConfig, make_sample
-    from ..data.shards import atomic_write_json
+    from ..fileio import atomic_write_json
     from ..eval.evaluate import sample_errors
-    from ..voting.estimator import Estimator
-    from ..voting.visualize import plot_results
+    from ..estimation.estimator import Estimator
+    from ..estimation.draw import plot_results
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -107,7 +107,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def cmd_models(args: argparse.Namespace) -> int:
     from ..model.checkpoint import read_model_json
-    from ..voting.estimator import list_pretrained, pretrained_dir
+    from ..model.checkpoint import list_pretrained, pretrained_dir
 
     names = list_pretrained()
     if not names:
@@ -171,7 +171,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def _estimator(args: argparse.Namespace):
-    from ..voting.estimator import Estimator
+    from ..estimation.estimator import Estimator
 
     return Estimator.load(args.model, num_pairs=args.pairs, awareness=not args.no_awareness, refine=args.refine, seed=args.seed,
                           resolve_flips=not args.keep_flips)
@@ -206,13 +206,13 @@ def format_errors(result, errors: dict) -> str:
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
-    from ..data.shards import atomic_write_json
+    from ..fileio import atomic_write_json
     from ..data.io import read_depth_png, read_intrinsics, read_point_cloud
 
     est = _estimator(args)
     jobs = []  # (name, points, normals, sample)
     if args.depth is not None:
-        from ..voting.estimator import rgbd_points
+        from ..estimation.inputs import rgbd_points
 
         if args.intrinsics is None:
             raise UcopeError("--depth needs --intrinsics K.json")
@@ -270,7 +270,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
             print(format_errors(res, d["errors"]))
         vis_items.append((pts, res, s, name))
     if args.vis is not None:
-        from ..voting.visualize import plot_results
+        from ..estimation.draw import plot_results
 
         print(f"wrote {plot_results(vis_items, args.vis)}")
     return 0
@@ -278,7 +278,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from ..data.dataset import load_dataset
-    from ..data.shards import atomic_write_json
+    from ..fileio import atomic_write_json
     from ..eval.evaluate import evaluate, format_report
 
     est = _estimator(args)

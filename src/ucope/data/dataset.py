@@ -10,7 +10,8 @@ import numpy as np
 
 from ..errors import DataError
 from ..render.camera import PinholeCamera
-from .shards import read_json, read_shard, shard_name
+from ..fileio import read_json
+from .shards import read_shard, shard_name
 
 __all__ = ["SyntheticDataset", "load_dataset"]
 

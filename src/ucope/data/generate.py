@@ -17,14 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
+from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 from ..errors import DataError, InputError
 from ..objects.articulation import JOINT_TYPES
 from ..objects.categories import SPLITS, get_category, make_instance
 from ..render.views import ViewConfig, render_view
 from .images import bop_entries, merge_bop_parts, write_png
 from .sample import sample_from_view
-from .shards import FORMAT_VERSION, atomic_write_json, read_json, shard_name, write_shard
+from ..fileio import atomic_write_json, read_json
+from .shards import FORMAT_VERSION, shard_name, write_shard
 
 __all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng"]
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, InputError
-from .shards import atomic_write_bytes, atomic_write_json, read_json
+from ..fileio import atomic_write_bytes, atomic_write_json, read_json
 
 __all__ = ["write_png", "read_png", "bop_entries", "merge_bop_parts"]
 

@@ -8,19 +8,17 @@ unpickles anything (``allow_pickle=False``).
 
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DataError
+from ..fileio import atomic_write_bytes
+from ..versions import DATA_FORMAT_VERSION as FORMAT_VERSION
 
-__all__ = ["FORMAT_VERSION", "atomic_write_bytes", "atomic_write_json", "write_shard", "read_shard", "read_json", "shard_name"]
-
-FORMAT_VERSION = 1
+__all__ = ["FORMAT_VERSION", "write_shard", "read_shard", "shard_name"]
 
 _POINT_FIELDS = ("points", "normals", "part_labels")
 _STACK_FIELDS = ("cam_from_part", "size_m", "joint_type", "joint_pivot", "joint_axis", "joint_state", "cam_from_object", "intrinsics")
@@ -28,40 +26,6 @@ _STACK_FIELDS = ("cam_from_part", "size_m", "joint_type", "joint_pivot", "joint_
 
 def shard_name(shard: int) -> str:
     return f"shard_{shard:05d}.npz"
-
-
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (a temporary file in the same folder, then rename)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
-def atomic_write_json(path: str | os.PathLike, obj) -> None:
-    atomic_write_bytes(path, (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode("utf-8"))
-
-
-def read_json(path: str | os.PathLike) -> dict:
-    """Read a JSON file; a missing or corrupt file raises :class:`DataError` naming it."""
-    path = Path(path)
-    try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
-    except FileNotFoundError:
-        raise DataError(f"{path} does not exist") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise DataError(f"{path} is not valid JSON ({e})") from None
 
 
 def write_shard(path: str | os.PathLike, samples: list[dict]) -> None:

@@ -12,28 +12,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
+from ..plotting import PART_COLOURS, pyplot, save_figure
+from ..plotting import to_plot_axes as _to_plot
 
-__all__ = ["PART_COLOURS", "plot_samples", "plot_object", "matplotlib_pyplot"]
-
-PART_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
-
-
-def matplotlib_pyplot():
-    """``matplotlib.pyplot`` with the non-interactive Agg backend, or a clear error if it is missing."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise InputError('pictures need matplotlib: pip install "ucope[viz]"') from None
-    return plt
-
-
-def _to_plot(p: np.ndarray) -> np.ndarray:
-    """Camera frame (x right, y down, z forward) -> plot axes (x right, z forward as depth, y up)."""
-    p = np.asarray(p, dtype=np.float64)
-    return np.stack([p[..., 0], p[..., 2], -p[..., 1]], axis=-1)
+__all__ = ["plot_samples", "plot_object", "draw_sample"]
 
 
 def draw_sample(ax, sample: dict, title: str | None = None, max_points: int = 3000, box_style: str = "-") -> None:
@@ -82,7 +64,7 @@ def plot_samples(samples: list[dict], out: str | Path, titles: list[str] | None 
     """Draw samples side by side into a PNG at ``out``; returns the path."""
     if not samples:
         raise InputError("nothing to plot: no samples given")
-    plt = matplotlib_pyplot()
+    plt = pyplot()
     n = len(samples)
     cols = min(cols, n)
     rows = -(-n // cols)
@@ -92,13 +74,7 @@ def plot_samples(samples: list[dict], out: str | Path, titles: list[str] | None 
         title = titles[i] if titles else f"{s['category']} #{s['index']} ({s['instance_id']})"
         draw_sample(ax, s, title)
     fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.stem}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(out)
-    return out
+    return save_figure(fig, out)
 
 
 def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_deg: float = 35.0, elevation_deg: float = 25.0) -> Path:
@@ -112,7 +88,7 @@ def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_
     from ..render.camera import PinholeCamera
     from ..render.raycast import raycast_depth
 
-    plt = matplotlib_pyplot()
+    plt = pyplot()
     import matplotlib.colors as mcolors
 
     poses = obj.object_from_part(state)
@@ -153,10 +129,4 @@ def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_
     ax.axis("off")
     ax.set_title(title or obj.instance_id, fontsize=9)
     fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.stem}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(out)
-    return out
+    return save_figure(fig, out)

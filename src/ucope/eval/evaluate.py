@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from ..versions import __version__
 from ..errors import InputError
 from .metrics import (
     IOU_METHOD,
@@ -75,7 +75,7 @@ def sample_errors(result, sample: Mapping) -> dict:
     """Every metric of one prediction against one data-set sample.
 
     Args:
-        result: a :class:`ucope.voting.result.PoseResult` of the sample's cloud (``part_labels`` one
+        result: a :class:`ucope.estimation.result.PoseResult` of the sample's cloud (``part_labels`` one
             per sample point).
         sample: the sample dict (:mod:`ucope.data.sample`).
 

@@ -26,8 +26,8 @@ from typing import Any
 
 import torch
 
-from .. import CONVENTIONS_VERSION, __version__
-from ..data.shards import atomic_write_bytes, atomic_write_json, read_json
+from ..versions import CHECKPOINT_FORMAT, CONVENTIONS_VERSION, MODEL_FORMAT, __version__
+from ..fileio import atomic_write_bytes, atomic_write_json, read_json
 from ..errors import DataError, InputError
 from .config import ModelConfig
 
@@ -45,9 +45,6 @@ __all__ = [
     "load_checkpoint",
     "sha256_file",
 ]
-
-MODEL_FORMAT = "ucope-model/1"
-CHECKPOINT_FORMAT = "ucope-checkpoint/1"
 
 _DTYPES = {"float32": torch.float32, "float16": torch.float16, "bfloat16": torch.bfloat16}
 

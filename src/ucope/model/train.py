@@ -43,8 +43,8 @@ import torch
 import torch.distributed as dist
 from torch.utils.data import DataLoader, DistributedSampler
 
-from .. import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
-from ..data.shards import atomic_write_json
+from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
+from ..fileio import atomic_write_json
 from ..errors import DataError, InputError, UcopeError
 from .batch import TrainingItems, batch_to, collate_items
 from .checkpoint import find_model, load_checkpoint, load_model, read_model_json, save_checkpoint, save_model

@@ -34,13 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import CONVENTIONS_VERSION, __version__
-from ..data.shards import atomic_write_json
+from ..versions import CONVENTIONS_VERSION, RESULT_FORMAT, __version__
+from ..fileio import atomic_write_json, read_json
 from ..errors import DataError
 
 __all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult"]
-
-RESULT_FORMAT = "ucope-result/1"
 
 
 def _floats(a, ndigits: int = 7) -> Any:
@@ -173,6 +171,4 @@ class PoseResult:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "PoseResult":
-        from ..data.shards import read_json
-
         return cls.from_dict(read_json(path))

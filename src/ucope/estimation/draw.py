@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.visualize import PART_COLOURS, _to_plot, matplotlib_pyplot
+from ..plotting import PART_COLOURS, pyplot, save_figure
+from ..plotting import to_plot_axes as _to_plot
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
 from .result import PoseResult
@@ -69,7 +70,7 @@ def plot_results(items: list[tuple[np.ndarray, PoseResult, dict | None, str]], o
     (written atomically)."""
     if not items:
         raise InputError("nothing to plot")
-    plt = matplotlib_pyplot()
+    plt = pyplot()
     n = len(items)
     cols = min(cols, n)
     rows = -(-n // cols)
@@ -77,10 +78,4 @@ def plot_results(items: list[tuple[np.ndarray, PoseResult, dict | None, str]], o
     for i, (pts, res, sample, title) in enumerate(items):
         draw_result(fig.add_subplot(rows, cols, i + 1, projection="3d"), pts, res, sample, title)
     fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.stem}.tmp.png")
-    fig.savefig(tmp)
-    plt.close(fig)
-    tmp.replace(out)
-    return out
+    return save_figure(fig, out)

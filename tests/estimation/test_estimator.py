@@ -9,8 +9,8 @@ from ucope.cli.main import main
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import DataError, InputError
 from ucope.model.train import TrainConfig, train
-from ucope.voting.estimator import MIN_POINTS, Estimator, rgbd_points
-from ucope.voting.result import PoseResult
+from ucope.estimation import MIN_POINTS, Estimator, rgbd_points
+from ucope.estimation.result import PoseResult
 
 TINY_ENCODER = dict(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
 
@@ -173,7 +173,7 @@ def test_cli_predict_rgbd_and_errors(tiny_run, tmp_path, capsys):
 
 
 def test_shipped_name_is_not_hidden_by_a_folder_of_that_name(tmp_path, monkeypatch):
-    from ucope.voting.estimator import list_pretrained
+    from ucope.model.checkpoint import list_pretrained
 
     assert "laptop" in list_pretrained()
     monkeypatch.chdir(tmp_path)
@@ -203,7 +203,7 @@ def test_refinement_default_comes_from_the_model(tiny_run, tmp_path, sample):
 
 @pytest.mark.parametrize("name, on", [("eyeglasses", True), ("drawer", True), ("laptop", False), ("mug", False)])
 def test_shipped_models_carry_their_measured_refinement_default(name, on):
-    from ucope.voting.estimator import list_pretrained
+    from ucope.model.checkpoint import list_pretrained
 
     if name not in list_pretrained():
         pytest.skip("model not shipped")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from ucope.errors import DataError
-from ucope.voting.result import RESULT_FORMAT, JointEstimate, PartEstimate, PoseResult
+from ucope.estimation.result import RESULT_FORMAT, JointEstimate, PartEstimate, PoseResult
 
 
 def _result() -> PoseResult:

@@ -1,0 +1,42 @@
+"""Version and format constants, in one module that imports nothing (every layer may read it).
+
+Each file ucope writes names its format, and each reader checks it with both versions named in the error:
+
+* :data:`CONVENTIONS_VERSION`: frames, units and per-category canonical frames (docs/conventions.md);
+* :data:`GENERATOR_VERSION`: the procedural generators and the renderer (data sets record it);
+* :data:`DATA_FORMAT_VERSION`: the shard layout of a data set (``meta.json`` + ``shard_NNNNN.npz``);
+* :data:`MODEL_FORMAT`, :data:`CHECKPOINT_FORMAT`, :data:`RESULT_FORMAT`: the JSON format tags of a
+  model, a training checkpoint and a pose result.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "__version__",
+    "CONVENTIONS_VERSION",
+    "GENERATOR_VERSION",
+    "DATA_FORMAT_VERSION",
+    "MODEL_FORMAT",
+    "CHECKPOINT_FORMAT",
+    "RESULT_FORMAT",
+]
+
+__version__ = "0.2.0"
+
+CONVENTIONS_VERSION = "1"
+"""Version of the frames / units / per-category canonical frames documented in docs/conventions.md."""
+
+GENERATOR_VERSION = "1"
+"""Version of the procedural generators and renderer; data sets record it in meta.json."""
+
+DATA_FORMAT_VERSION = 1
+"""Version of the on-disk shard layout (:mod:`ucope.data.shards`)."""
+
+MODEL_FORMAT = "ucope-model/1"
+"""Format tag of a model JSON (:mod:`ucope.model.checkpoint`)."""
+
+CHECKPOINT_FORMAT = "ucope-checkpoint/1"
+"""Format tag of a training checkpoint JSON."""
+
+RESULT_FORMAT = "ucope-result/1"
+"""Format tag of a pose result JSON (:mod:`ucope.estimation.result`)."""
