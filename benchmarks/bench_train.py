@@ -22,14 +22,16 @@ import torch
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.model.batch import TrainingItems, collate_items
-from ucope.model.config import ModelConfig, compute_category_stats
-from ucope.model.network import build_model
+from ucope.model.config import ModelConfig
+from ucope.objects.categories import make_instance
+from ucope.priors import measure_priors
+from ucope.model.factory import build_model
 
 TARGET_S = {"slim": 0.7, "full": 1.4}
 
 
 def bench(category: str, size: str, steps: int, samples: list[dict]) -> dict:
-    cfg = ModelConfig.for_category(category, compute_category_stats(samples), size=size)
+    cfg = ModelConfig.default(measure_priors(samples, category, make_instance(category, "train", 0).structure()), size=size)
     torch.manual_seed(0)
     net = build_model(cfg)
     opt = torch.optim.Adam(net.parameters(), lr=1e-3)

@@ -25,7 +25,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "voting"))
 from voting_support import angle_deg, random_part, synthetic_heads  # noqa: E402
 
-from ucope.voting import VotingOptions, vote_axis, vote_part  # noqa: E402
+from ucope.voting import AxisOptions, VotingOptions, vote_axis, vote_part  # noqa: E402
 
 # The synthetic pairs cover every face of the box, not one view's visible side: no thin-part snap.
 OPTIONS = VotingOptions(thin_snap_ratio=0.0)
@@ -48,7 +48,7 @@ def run(pairs: int, outliers: float, trials: int, noise_frac: float, noise_deg: 
         R = r.cam_from_part[:3, :3]
         e = torch.nn.functional.normalize(a - b, dim=-1)
         alpha = torch.arccos((e.double() @ torch.tensor(T[:3, 1])).clamp(-1, 1)).float()
-        u_cppf, _ = vote_axis(e, alpha, method="fibonacci", num_directions=480, refine_iters=0, max_coarse_pairs=pairs)
+        u_cppf, _ = vote_axis(e, alpha, options=AxisOptions(method="fibonacci", num_directions=480, refine_iters=0, max_coarse_pairs=pairs))
         u_cppf = u_cppf.double().numpy()
         rows.append({
             "centre_mm": 1000 * float(np.linalg.norm(r.cam_from_part[:3, 3] - T[:3, 3])),

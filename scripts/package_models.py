@@ -84,7 +84,7 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
         rep = json.loads((reports / f"{cat}.json").read_text())
         meta_path = dest / f"{cat}.json"
         meta = json.loads(meta_path.read_text())
-        if rep.get("category") != meta["config"]["category"]:
+        if rep.get("category") != meta["config"]["priors"]["category"]:
             raise SystemExit(f"{reports / (cat + '.json')} is a report on {rep.get('category')!r}, not {cat!r}")
         meta["info"]["test"] = test_figures(rep)
         set_defaults(meta["info"], reports, cat)

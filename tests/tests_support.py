@@ -18,3 +18,12 @@ def make_toy_object(joint_type: str = "revolute"):
         joint = dict(type="prismatic", parent=0, child=1, pivot=[0.0, 0.1, 0.0], axis=[0.0, 0.0, 1.0], limits=(0.0, 0.25), rest=0.0)
     return build_object("toy", "toy/0", [(base, T0), (lid, T1)], [joint])
 
+
+
+def measured_priors(category: str, samples):
+    """The :class:`ucope.priors.CategoryPriors` a training run would measure on ``samples`` of a
+    procedural category (its declared structure from the generator's instance 0)."""
+    from ucope.objects.categories import make_instance
+    from ucope.priors import measure_priors
+
+    return measure_priors(samples, category, make_instance(category, "train", 0).structure())

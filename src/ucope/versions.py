@@ -32,10 +32,10 @@ GENERATOR_VERSION = "1"
 DATA_FORMAT_VERSION = 1
 """Version of the on-disk shard layout (:mod:`ucope.data.shards`)."""
 
-MODEL_FORMAT = "ucope-model/1"
-"""Format tag of a model JSON (:mod:`ucope.model.checkpoint`)."""
+MODEL_FORMAT = "ucope-model/2"
+"""Format tag of a model JSON (:mod:`ucope.model.checkpoint`); 2: the category priors live in the model."""
 
-CHECKPOINT_FORMAT = "ucope-checkpoint/1"
+CHECKPOINT_FORMAT = "ucope-checkpoint/2"
 """Format tag of a training checkpoint JSON."""
 
 RESULT_FORMAT = "ucope-result/1"

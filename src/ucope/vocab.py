@@ -5,6 +5,8 @@
   in JSON files.
 * Part symmetry: ``"none"`` or ``"y"`` (continuous rotational symmetry about the part's own y axis);
   :data:`SYMMETRIES` lists them, :func:`parse_symmetry` checks one.
+* The names of the network's per-pair outputs that the voting reads (:data:`VOTE_HEADS`,
+  :data:`AXIS_HEADS`): the contract between :mod:`ucope.model` and :mod:`ucope.voting`.
 
 Imports nothing from ucope but :mod:`ucope.errors`.
 """
@@ -15,7 +17,7 @@ import enum
 
 from .errors import InputError
 
-__all__ = ["JointType", "JOINT_TYPES", "SYMMETRIES", "parse_symmetry"]
+__all__ = ["JointType", "JOINT_TYPES", "SYMMETRIES", "parse_symmetry", "VOTE_HEADS", "AXIS_HEADS"]
 
 
 class JointType(enum.IntEnum):
@@ -69,3 +71,10 @@ def parse_symmetry(value) -> str:
     if value not in SYMMETRIES:
         raise InputError(f"symmetry must be one of {SYMMETRIES}, got {value!r}")
     return value
+
+
+VOTE_HEADS = ("mu_logits", "nu_logits", "gamma", "part_score")
+"""Per-pair outputs every voting pair needs: centre bins, log-size offsets, part-score logit."""
+
+AXIS_HEADS = ("alpha_logits", "beta_logits", "sign_logits")
+"""Per-pair outputs only the pairs voting the axes need (an estimator computes them lazily for those)."""

@@ -23,9 +23,9 @@ def test_every_category_ships_a_small_model():
     assert total < 40e6
     for name in list_pretrained():
         meta = read_model_json(pretrained_dir() / f"{name}.json")
-        assert meta["config"]["category"] == name and meta["config"]["head"] == "voting"
+        assert meta["config"]["priors"]["category"] == name and meta["config"]["head"] == "voting"
         test = meta["info"]["test"]
-        assert len(test["rotation_deg_mean"]) == len(meta["config"]["part_names"])
+        assert len(test["rotation_deg_mean"]) == len(meta["config"]["priors"]["parts"])
         assert meta["info"]["fp16_check"]["stored_as"] == meta["weights"]["dtype"]
 
 

@@ -11,7 +11,9 @@ from scipy.spatial.transform import Rotation
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.eval.evaluate import EVAL_FORMAT, evaluate, format_report, mug_handle_visible, sample_errors
-from ucope.model.config import ModelConfig, compute_category_stats
+from ucope.model.config import ModelConfig
+from ucope.vocab import JointType
+from tests_support import measured_priors
 from ucope.estimation.result import JointEstimate, PartEstimate, PoseResult
 
 
@@ -26,7 +28,7 @@ class Oracle:
     axis and shifted by ``shift_m`` along the camera x axis."""
 
     def __init__(self, category, angle_deg=0.0, shift_m=0.0):
-        self.cfg = ModelConfig.for_category(category, compute_category_stats(samples(category)))
+        self.cfg = ModelConfig.default(measured_priors(category, samples(category)), size="full")
         self.name, self.num_pairs, self.awareness, self.refine, self.seed = "oracle", 100, True, False, 0
         self.R = Rotation.from_euler("z", angle_deg, degrees=True).as_matrix()
         self.shift = np.array([shift_m, 0.0, 0.0])
@@ -38,10 +40,11 @@ class Oracle:
             T[:3, :3] = T[:3, :3] @ self.R
             T[:3, 3] += self.shift
             parts.append(PartEstimate(index=k, label=self.cfg.part_names[k], cam_from_part=T, size_m=np.array(s["size_m"][k]),
-                                      score=0.9, symmetry=self.cfg.part_symmetry[k]))
-        joints = [JointEstimate(type=("revolute", "prismatic")[int(t)], parent=p, child=c, pivot_m=np.array(s["joint_pivot"][j]) if t == 0 else None,
+                                      score=0.9, symmetry=self.cfg.priors.parts[k].symmetry))
+        joints = [JointEstimate(type=jp.type.label, parent=jp.parent, child=jp.child,
+                                pivot_m=np.array(s["joint_pivot"][j]) if jp.type == JointType.REVOLUTE else None,
                                 axis=np.array(s["joint_axis"][j]), state=float(s["joint_state"][j]))
-                  for j, (t, p, c) in enumerate(zip(s["joint_type"], self.cfg.joint_parents, self.cfg.joint_children))]
+                  for j, jp in enumerate(self.cfg.priors.joints)]
         return PoseResult(category=self.cfg.category, parts=parts, joints=joints, part_labels=np.asarray(s["part_labels"]),
                           timings_ms={"total": 12.0, "voting": 5.0})
 
@@ -112,10 +115,10 @@ def test_cli_eval_writes_a_report_and_prints_the_table(tmp_path, capsys, head):
 
     from ucope.cli.main import main
     from ucope.model.checkpoint import save_model
-    from ucope.model.network import build_model
+    from ucope.model.factory import build_model
     from ucope.model.pointnet2 import PointNet2Config
 
-    cfg = ModelConfig.for_category("laptop", compute_category_stats(samples("laptop")), head=head,
+    cfg = ModelConfig.default(measured_priors("laptop", samples("laptop")), size="full", head=head,
                                    encoder=PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8)),
                                    num_points=256, hidden=16)
     torch.manual_seed(0)

@@ -91,24 +91,3 @@ def test_box_support_and_errors():
         joint_state_from_poses(np.eye(4), np.eye(4), [0, 0, 1], "fixed")
     with pytest.raises(InputError):
         joint_state_from_poses(np.full((4, 4), np.nan), np.eye(4), [0, 0, 1], 0)
-
-
-def test_category_stats_measure_the_zero_offsets_and_configs_keep_the_axes():
-    import json
-
-    from ucope.model.config import CategoryStats, ModelConfig, compute_category_stats
-
-    st = compute_category_stats(_samples("drawer", "train", 10))
-    assert len(st.joint_zero_offset_m) == 3 and all(0.0 < v < 0.05 for v in st.joint_zero_offset_m)
-    assert compute_category_stats(_samples("laptop", "train", 3)).joint_zero_offset_m == (0.0,)
-    assert compute_category_stats(_samples("mug", "train", 3)).joint_zero_offset_m == ()
-    cfg = ModelConfig.for_category("drawer", st)
-    assert cfg.joint_axes_in_parent == ((0.0, 0.0, 1.0),) * 3
-    d = json.loads(json.dumps(cfg.to_dict()))
-    assert ModelConfig.from_dict(d) == cfg
-    # Configurations saved before these fields existed still load.
-    d.pop("joint_axes_in_parent")
-    d["stats"].pop("joint_zero_offset_m")
-    old = ModelConfig.from_dict(d)
-    assert old.joint_axes_in_parent == () and old.stats.joint_zero_offset_m == ()
-    assert CategoryStats.from_dict(d["stats"]) == old.stats

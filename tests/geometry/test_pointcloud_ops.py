@@ -3,7 +3,6 @@ import pytest
 
 from ucope.errors import InputError
 from ucope.geometry.normals import estimate_normals
-from ucope.geometry.ppf import point_pair_features
 from ucope.geometry.sampling import farthest_point_sampling, random_subset
 
 
@@ -81,16 +80,6 @@ def test_normals_bad_input():
     with pytest.raises(InputError, match="shape"):
         estimate_normals(np.zeros((5, 2)))
 
-
-def test_ppf_values_and_sign_invariance():
-    a, b = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0])
-    na, nb = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    f = point_pair_features(a, na, b, nb, sign_invariant=False)
-    np.testing.assert_allclose(f, [2.0, 0.0, np.pi / 2, np.pi / 2], atol=1e-12)
-    f1 = point_pair_features(a, -na, b, nb)
-    f2 = point_pair_features(a, na, b, -nb)
-    np.testing.assert_allclose(f1, f2, atol=1e-12)
-    assert f1[1] == pytest.approx(0.0)
 
 def test_smallest_eigenvectors_sym3_matches_eigh(rng):
     from ucope.geometry.normals import smallest_eigenvectors_sym3

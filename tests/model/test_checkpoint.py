@@ -74,7 +74,19 @@ def test_truncated_or_foreign_json_is_refused(laptop_net, tmp_path):
     with pytest.raises(DataError, match="not valid JSON"):
         load_model(tmp_path)
     j.write_text(json.dumps({"hello": 1}))
-    with pytest.raises(DataError, match="not a ucope model"):
+    with pytest.raises(DataError, match="not a model this ucope"):
+        load_model(tmp_path)
+
+
+def test_models_of_another_format_or_conventions_version_are_refused_naming_both(laptop_net, tmp_path):
+    save_model(laptop_net, tmp_path)
+    j = tmp_path / "model.json"
+    meta = json.loads(j.read_text())
+    j.write_text(json.dumps({**meta, "format": "ucope-model/1"}))
+    with pytest.raises(DataError, match="'ucope-model/1', expected 'ucope-model/2'"):
+        load_model(tmp_path)
+    j.write_text(json.dumps({**meta, "conventions_version": "0"}))
+    with pytest.raises(DataError, match="conventions version 0, this ucope uses version 1"):
         load_model(tmp_path)
 
 

@@ -8,8 +8,10 @@ import torch
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.model.batch import TrainingItems, batch_to, collate_items, sample_pairs
-from ucope.model.config import CategoryStats, ModelConfig, compute_category_stats
-from ucope.model.network import AXIS_HEADS, UCOPENet
+from ucope.model.config import ModelConfig
+from ucope.model.network import UCOPENet
+from ucope.vocab import AXIS_HEADS
+from tests_support import measured_priors
 from ucope.model.pointnet2 import PointNet2Config
 
 TINY_ENCODER = PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
@@ -22,10 +24,9 @@ def tiny_samples(category: str, n: int = 8) -> tuple:
 
 
 def tiny_config(category: str, **kw) -> ModelConfig:
-    stats = compute_category_stats(tiny_samples(category))
     base = dict(encoder=TINY_ENCODER, num_points=256, pairs_per_part=48, hidden=32)
     base.update(kw)
-    return ModelConfig.for_category(category, stats, **base)
+    return ModelConfig.default(measured_priors(category, tiny_samples(category)), size="full", **base)
 
 
 def tiny_batch(cfg: ModelConfig, n: int = 4, seed: int = 0) -> dict:
@@ -123,7 +124,7 @@ def test_gradients_reach_every_head(category):
     for name, p in net.named_parameters():
         assert p.grad is not None, name
         assert torch.isfinite(p.grad).all(), name
-        if name.startswith("pair_out") and cfg.part_symmetry[0] == "y" and cfg.num_parts == 1:
+        if name.startswith("pair_out") and cfg.priors.parts[0].symmetry == "y" and cfg.num_parts == 1:
             continue  # the beta bins of a symmetric part get no gradient (checked below)
         assert p.grad.abs().sum() > 0, name
     assert set(logs) >= {"loss", "pose", "mu", "nu", "alpha", "beta", "gamma", "sign", "part_score"}
@@ -135,7 +136,7 @@ def test_symmetric_part_trains_no_right_axis():
     """A y-symmetric part (bottle) gets no gradient on its beta bins or its right-axis sign bit."""
     torch.manual_seed(0)
     cfg = tiny_config("bottle")
-    assert cfg.part_symmetry == ("y",)
+    assert cfg.priors.symmetric == (True,)
     net = UCOPENet(cfg)
     loss, _ = net.compute_loss(tiny_batch(cfg))
     loss.backward()
@@ -195,32 +196,17 @@ def test_config_round_trip_and_errors():
     d = cfg.to_dict()
     import json
 
-    assert ModelConfig.from_dict(json.loads(json.dumps(d))) == cfg
-    assert cfg.joint_parents == (0, 0) and cfg.joint_children == (1, 2) and cfg.joint_types == (0, 0)
-    assert ModelConfig.for_category("drawer", compute_category_stats(tiny_samples("drawer"))).joint_types == (1, 1, 1)
+    back = ModelConfig.from_dict(json.loads(json.dumps(d)), cfg.priors.tensors())
+    assert back == cfg and all(np.array_equal(a, b) for a, b in zip(back.priors.shape_templates, cfg.priors.shape_templates))
+    assert [(j.parent, j.child, j.type.label) for j in cfg.priors.joints] == [(0, 1, "revolute"), (0, 2, "revolute")]
     with pytest.raises(InputError, match="unknown model config fields"):
         ModelConfig.from_dict({**d, "bogus": 1})
     with pytest.raises(InputError, match="malformed"):
-        ModelConfig.from_dict({k: v for k, v in d.items() if k != "stats"})
+        ModelConfig.from_dict({k: v for k, v in d.items() if k != "priors"})
+    with pytest.raises(InputError, match="version"):
+        ModelConfig.from_dict({**d, "version": 1})
     with pytest.raises(InputError, match="size"):
-        ModelConfig.for_category("mug", cfg.stats, size="huge")
-    with pytest.raises(InputError, match="positive"):
-        CategoryStats(vote_range_m=(0.1,), mean_size_m=((0.1, 0.0, 0.1),), norm_scale_m=0.1)
-    with pytest.raises(InputError, match="empty"):
-        compute_category_stats([])
-
-
-def test_category_stats_bound_the_vote_parameters():
-    samples = tiny_samples("laptop")
-    st = compute_category_stats(samples)
-    for s in samples:
-        for k in range(2):
-            pts = s["points"][s["part_labels"] == k]
-            if len(pts):
-                c = s["cam_from_part"][k][:3, 3]
-                assert np.linalg.norm(pts - c, axis=1).max() <= st.vote_range_m[k]
-    assert 0.05 < st.norm_scale_m < 0.5
-    assert math.isclose(st.mean_size_m[0][0], st.mean_size_m[1][0], rel_tol=1e-6)  # lid as wide as the base
+        ModelConfig.default(cfg.priors, size="huge")
 
 
 def test_bad_input_shapes():

@@ -8,7 +8,8 @@ import torch
 from test_network import overfit, tiny_batch, tiny_config
 from ucope.errors import InputError
 from ucope.model.checkpoint import load_model, save_model
-from ucope.model.network import UCOPENet, build_model
+from ucope.model.factory import build_model
+from ucope.model.network import UCOPENet
 from ucope.model.regression import RegressionNet, rotation_from_6d
 
 

@@ -87,7 +87,7 @@ def test_init_from_a_model_fine_tunes_its_weights(tmp_path):
     tuned, meta = load_model(tmp_path / "tuned")
     for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values()):
         assert torch.allclose(a, b, atol=1e-6), k
-    assert tuned.cfg.stats == base.cfg.stats  # the outputs stay relative to the base model's statistics
+    assert tuned.cfg.priors == base.cfg.priors  # the outputs stay relative to the base model's statistics
     assert tuned.cfg.lambda_seg == 1.0 and tuned.cfg.seg_weighting == "points"
     assert meta["info"]["initialised_from"] == {"model": str(tmp_path / "base"), "category": "laptop", "steps": 3,
                                                 "train_time_s": json.loads((tmp_path / "base" / "model_card.json").read_text())["train_time_s"]}

@@ -7,7 +7,7 @@ import torch
 from ucope.errors import InputError
 from ucope.geometry.transforms import random_rotation
 from ucope.voting import choose_axis_sign, fibonacci_sphere, vote_axis
-from ucope.voting.axis import _coarse_axis, _cube_cell, cube_cell_centre
+from ucope.voting.axis import AxisOptions, coarse_axes, cube_cell, cube_cell_centre
 
 from voting_support import angle_deg
 
@@ -26,12 +26,12 @@ def test_axis_from_exact_cones_well_under_a_degree(rng, method):
     for _ in range(5):
         u = random_rotation(rng)[:, 0]
         e, ang = _cones(rng, u, 3000, outliers=0.2)
-        v, inl = vote_axis(e, ang, method=method)
+        v, inl = vote_axis(e, ang, options=AxisOptions(method=method))
         assert angle_deg(v, u) < 0.05  # measured ~0.01 degree
         assert 0.78 < float(inl.float().mean()) < 0.85
         # The coarse stage alone: within the cube-map cell (< 2.1 degrees from its centre), or for the
         # Fibonacci score within the 5-degree tolerance band (its peak is flat-topped).
-        v0, _ = vote_axis(e, ang, method=method, refine_iters=0)
+        v0, _ = vote_axis(e, ang, options=AxisOptions(method=method, refine_iters=0))
         assert angle_deg(v0, u) < (3.0 if method == "cubemap" else 6.0)
 
 
@@ -79,10 +79,10 @@ def test_coarse_vote_of_several_axes_at_once_equals_one_at_a_time(rng):
     et = torch.tensor(e.T, dtype=torch.float32).contiguous()
     angles = torch.tensor(np.arccos(np.clip(e @ R[:, :2], -1, 1)).T, dtype=torch.float32)  # (2, M): x and y cones
     w = torch.ones(800)
-    both = _coarse_axis(et, angles, w, 24, 32)
+    both = coarse_axes(et, angles, w, 24, 32)
     assert both.shape == (2, 3)
     for i in range(2):
-        one = _coarse_axis(et, angles[i], w, 24, 32)
+        one = coarse_axes(et, angles[i], w, 24, 32)
         assert torch.equal(both[i], one)
         assert angle_deg(one, R[:, i]) < 3.0
 
@@ -92,12 +92,12 @@ def test_sphere_and_cube_map_helpers():
     torch.testing.assert_close(d.norm(dim=-1), torch.ones(4000))
     G = 16
     dirs = torch.nn.functional.normalize(torch.randn(3, 5000, generator=torch.Generator().manual_seed(0)), dim=0)
-    idx = _cube_cell(dirs, G)
+    idx = cube_cell(dirs, G)
     assert int(idx.min()) >= 0 and int(idx.max()) < 6 * G * G
     for i in range(0, 5000, 250):  # every direction is near the centre of its cell
         c = cube_cell_centre(int(idx[i]), G)
         assert angle_deg(c, dirs[:, i]) < 90 / G
-        assert int(_cube_cell(c.view(3, 1), G)[0]) == int(idx[i])
+        assert int(cube_cell(c.view(3, 1), G)[0]) == int(idx[i])
 
 
 def test_axis_errors():
@@ -106,4 +106,4 @@ def test_axis_errors():
     with pytest.raises(InputError):
         vote_axis(torch.ones(4, 3), torch.zeros(4), weights=torch.zeros(4))
     with pytest.raises(InputError):
-        vote_axis(torch.ones(4, 3), torch.zeros(4), method="grid")
+        AxisOptions(method="grid")

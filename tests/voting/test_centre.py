@@ -5,9 +5,9 @@ import pytest
 import torch
 
 from ucope.errors import InputError
-from ucope.voting import vote_centre
+from ucope.voting import CentreOptions, vote_centre
 from ucope.voting.bins import decode_bins
-from ucope.voting.centre import _grid_peak, circle_candidates, pair_frames
+from ucope.voting.centre import grid_peak, circle_candidates, pair_frames
 
 from voting_support import random_part, synthetic_heads
 
@@ -26,7 +26,7 @@ def test_centre_from_exact_votes_within_a_small_fraction_of_a_cell(rng, outliers
         frac = float(inl.float().mean())
         assert 0.95 * (1 - outliers) < frac < 1 - outliers + 0.1
         # Without refinement: the peak cell centre, within a cell.
-        c0, _ = vote_centre(a, b, mu, nu, vote_range_m=V, refine_iters=0)
+        c0, _ = vote_centre(a, b, mu, nu, vote_range_m=V, options=CentreOptions(refine_iters=0))
         assert np.linalg.norm(c0.numpy() - T[:3, 3]) < 1.5 * cell
 
 
@@ -65,7 +65,7 @@ def test_vectorised_grid_vote_matches_a_slow_reference(rng):
     torch.testing.assert_close(d.norm(dim=0), nu[:, None].expand(M, Tn), atol=1e-5, rtol=0)
     w = torch.rand(M, Tn, generator=torch.Generator().manual_seed(0))
     for cell in (0.05, 0.2):
-        fast = _grid_peak(cand, w, cell, 64).numpy()
+        fast = grid_peak(cand, w, cell, 64).numpy()
         slow, _ = _slow_grid_peak(cand, w, cell, 64)
         np.testing.assert_allclose(fast, slow, atol=1e-5)
 

@@ -4,7 +4,9 @@ import torch
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.geometry.transforms import rotation_about_axis, rotation_angle_deg
-from ucope.model.config import ModelConfig, compute_category_stats
+from ucope.model.config import ModelConfig
+from ucope.vocab import JointType
+from tests_support import measured_priors
 from ucope.model.targets import joint_point_targets, pair_vote_targets
 from ucope.voting import VotingOptions, kinematic_refine, vote_object
 
@@ -25,11 +27,11 @@ def _exact_outputs(s, cfg, rng, M=1500):
     pair_idx = np.stack([rng.choice(np.flatnonzero(labels == k), (M, 2)) for k in range(K)])
     out = {k: [] for k in ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score")}
     for k in range(K):
-        V = cfg.stats.vote_range_m[k]
+        V = cfg.priors.vote_range_m[k]
         a, b, na = pts[pair_idx[k, :, 0]], pts[pair_idx[k, :, 1]], nrm[pair_idx[k, :, 0]]
         t = pair_vote_targets(a, b, na, torch.tensor(s["cam_from_part"][k], dtype=torch.float32),
                               torch.tensor(s["size_m"][k], dtype=torch.float32),
-                              torch.tensor(cfg.stats.mean_size_m[k], dtype=torch.float32))
+                              torch.tensor(cfg.priors.mean_size_m[k], dtype=torch.float32))
         out["mu_logits"].append(peaked_logits(t["mu"], -V, V, cfg.mu_bins))
         out["nu_logits"].append(peaked_logits(t["nu"], 0.0, V, cfg.nu_bins))
         out["alpha_logits"].append(peaked_logits(t["alpha"], 0.0, np.pi, cfg.angle_bins))
@@ -40,7 +42,7 @@ def _exact_outputs(s, cfg, rng, M=1500):
     outputs = {k: torch.stack(v)[None] for k, v in out.items()}
     jt = joint_point_targets(pts[None], torch.tensor(labels)[None], torch.tensor(s["joint_pivot"], dtype=torch.float32)[None],
                              torch.tensor(s["joint_axis"], dtype=torch.float32)[None], torch.tensor(s["joint_type"])[None],
-                             torch.tensor(cfg.joint_parents), torch.tensor(cfg.joint_children), 0.05)
+                             torch.tensor([j.parent for j in cfg.priors.joints]), torch.tensor([j.child for j in cfg.priors.joints]), 0.05)
     outputs["joint_heat"] = jt["heat"] * 8 - 4
     outputs["joint_score"] = jt["score"] * 8 - 4
     outputs["joint_offset"] = jt["offset"]
@@ -50,26 +52,26 @@ def _exact_outputs(s, cfg, rng, M=1500):
 
 @pytest.mark.parametrize("category", ["laptop", "eyeglasses", "drawer"])
 def test_vote_object_on_exact_heads_of_real_samples(category, rng):
-    cfg = ModelConfig.for_category(category, compute_category_stats(_samples(category, "train", 20)))
+    cfg = ModelConfig.default(measured_priors(category, _samples(category, "train", 20)), size="full")
     for s in _samples(category, "val", int(__import__("os").environ.get("UCOPE_TEST_SAMPLES", 2))):
         pts, nrm, pair_idx, outputs = _exact_outputs(s, cfg, rng)
         # With exact heads the voting inverts the targets; the thin-part surface snap (on by default)
         # then trades that exactness for the median of real, noisy surface points: a few millimetres.
-        snapped = vote_object(pts, nrm, pair_idx, outputs, cfg)
+        snapped = vote_object(pts, nrm, pair_idx, outputs, cfg.priors)
         for k in range(cfg.num_parts):
             assert np.linalg.norm(snapped["cam_from_part"][k][:3, 3] - s["cam_from_part"][k][:3, 3]) < 0.003
         for refine in (False, True):
-            res = vote_object(pts, nrm, pair_idx, outputs, cfg, refine=refine, options=VotingOptions(thin_snap_ratio=0.0))
+            res = vote_object(pts, nrm, pair_idx, outputs, cfg.priors, refine=refine, options=VotingOptions(thin_snap_ratio=0.0))
             assert res["refined"] == refine
             for k in range(cfg.num_parts):
                 T, Tg = res["cam_from_part"][k], s["cam_from_part"][k]
-                cell = cfg.stats.vote_range_m[k] / 20
+                cell = cfg.priors.vote_range_m[k] / 20
                 assert np.linalg.norm(T[:3, 3] - Tg[:3, 3]) < 0.25 * cell
                 assert rotation_angle_deg(T[:3, :3], Tg[:3, :3]) < 0.5
                 np.testing.assert_allclose(res["size_m"][k], s["size_m"][k], rtol=0.01)
             for j in range(cfg.num_joints):
                 assert angle_deg(res["joint_axis"][j], s["joint_axis"][j]) < 0.5
-                if cfg.joint_types[j] == 0:
+                if cfg.priors.joints[j].type == JointType.REVOLUTE:
                     d = np.cross(res["joint_pivot"][j] - s["joint_pivot"][j], s["joint_axis"][j])
                     assert np.linalg.norm(d) < 1e-3
                     assert abs(res["joint_state"][j] - s["joint_state"][j]) < np.radians(0.5)
@@ -79,10 +81,10 @@ def test_vote_object_on_exact_heads_of_real_samples(category, rng):
 
 def test_kinematic_refine_keeps_consistent_poses_and_reduces_noise(rng):
     S = _samples("eyeglasses", "train", 6)
-    cfg = ModelConfig.for_category("eyeglasses", compute_category_stats(S))
+    cfg = ModelConfig.default(measured_priors("eyeglasses", S), size="full")
     before, after = [], []
     for s in S:
-        r = kinematic_refine(s["cam_from_part"], s["size_m"], {"joint_axis": s["joint_axis"]}, cfg)
+        r = kinematic_refine(s["cam_from_part"], s["size_m"], {"joint_axis": s["joint_axis"]}, cfg.priors)
         assert rotation_angle_deg(r["cam_from_part"][:, :3, :3], s["cam_from_part"][:, :3, :3]).max() < 1e-4
         np.testing.assert_allclose(r["joint_state"], s["joint_state"], atol=1e-6)
         np.testing.assert_allclose(r["joint_axis"], s["joint_axis"], atol=1e-6)
@@ -90,14 +92,14 @@ def test_kinematic_refine_keeps_consistent_poses_and_reduces_noise(rng):
         for k in range(len(T)):
             T[k, :3, :3] = rotation_about_axis(rng.normal(size=3), np.radians(3.0)) @ T[k, :3, :3]
         axis = -(s["joint_axis"] + rng.normal(size=s["joint_axis"].shape) * 0.05)  # flipped sign too
-        r = kinematic_refine(T, s["size_m"], {"joint_axis": axis, "joint_pivot": s["joint_pivot"]}, cfg)
+        r = kinematic_refine(T, s["size_m"], {"joint_axis": axis, "joint_pivot": s["joint_pivot"]}, cfg.priors)
         before.append(rotation_angle_deg(T[:, :3, :3], s["cam_from_part"][:, :3, :3]).mean())
         after.append(rotation_angle_deg(r["cam_from_part"][:, :3, :3], s["cam_from_part"][:, :3, :3]).mean())
         # The result is exactly consistent: child = parent turned about the canonical axis.
         R = r["cam_from_part"][:, :3, :3]
         for j in range(cfg.num_joints):
-            p, c = cfg.joint_parents[j], cfg.joint_children[j]
-            a = np.asarray(cfg.joint_axes_in_parent[j])
+            p, c = cfg.priors.joints[j].parent, cfg.priors.joints[j].child
+            a = cfg.priors.joint_axes[j]
             np.testing.assert_allclose(R[c], R[p] @ rotation_about_axis(a, r["joint_state"][j]), atol=1e-9)
             assert r["joint_axis"][j] @ s["joint_axis"][j] > 0.99
         np.testing.assert_allclose(r["joint_pivot"], s["joint_pivot"])
@@ -109,33 +111,33 @@ def test_half_turn_flips_that_contradict_a_revolute_joint_are_undone(rng, flip_a
     from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
     from ucope.voting import resolve_joint_flips
 
-    cfg = ModelConfig.for_category("laptop", compute_category_stats(_samples("laptop", "train", 4)))
-    a = np.asarray(cfg.joint_axes_in_parent[0])
+    cfg = ModelConfig.default(measured_priors("laptop", _samples("laptop", "train", 4)), size="full")
+    a = cfg.priors.joint_axes[0]
     Rp = random_rotation(rng)
     Rc = Rp @ rotation_about_axis(a, 1.2)
     T = np.stack([make_transform(Rp, [0, 0, 1.0]), make_transform(Rc, [0, 0.1, 1.0])])
     u = Rp @ a  # the joint heads' axis
     flipped = T.copy()
     flipped[1, :3, :3] = Rc @ rotation_about_axis(np.array(flip_axis), np.pi)
-    fixed, which = resolve_joint_flips(flipped, u[None], cfg)
+    fixed, which = resolve_joint_flips(flipped, u[None], cfg.priors)
     assert which.tolist() == [False, True]
     np.testing.assert_allclose(fixed[1, :3, :3], Rc, atol=1e-9)
     np.testing.assert_allclose(fixed[1, :3, 3], T[1, :3, 3])
     # Consistent poses, or both parts against the joint heads' axis, are left alone.
-    same, which = resolve_joint_flips(T, u[None], cfg)
+    same, which = resolve_joint_flips(T, u[None], cfg.priors)
     assert not which.any() and np.array_equal(same, T)
-    _, which = resolve_joint_flips(T, -u[None], cfg)
+    _, which = resolve_joint_flips(T, -u[None], cfg.priors)
     assert not which.any()
     # The parent is the flipped one: it is turned back, the child stays.
     bad_parent = T.copy()
     bad_parent[0, :3, :3] = Rp @ rotation_about_axis(np.array(flip_axis), np.pi)
-    fixed, which = resolve_joint_flips(bad_parent, u[None], cfg)
+    fixed, which = resolve_joint_flips(bad_parent, u[None], cfg.priors)
     assert which.tolist() == [True, False]
     np.testing.assert_allclose(fixed[0, :3, :3], Rp, atol=1e-9)
     # A half turn of the child about the hinge itself puts the angle outside the limits: undone too.
     about_hinge = T.copy()
     about_hinge[1, :3, :3] = Rc @ rotation_about_axis(a, np.pi)
-    fixed, which = resolve_joint_flips(about_hinge, u[None], cfg)
+    fixed, which = resolve_joint_flips(about_hinge, u[None], cfg.priors)
     assert which.tolist() == [False, True]
     np.testing.assert_allclose(fixed[1, :3, :3], Rc, atol=1e-9)
 
@@ -147,18 +149,18 @@ def test_a_front_turned_about_its_hinge_axis_is_turned_back_by_the_temples_place
     from ucope.objects.categories import make_instance
     from ucope.voting import resolve_joint_flips
 
-    cfg = ModelConfig.for_category("eyeglasses", compute_category_stats(_samples("eyeglasses", "train", 4)))
+    cfg = ModelConfig.default(measured_priors("eyeglasses", _samples("eyeglasses", "train", 4)), size="full")
     obj = make_instance("eyeglasses", "test", 3)
     cam_from_object = make_transform(random_rotation(rng), [0.0, 0.0, 0.6])
     T = cam_from_object @ obj.object_from_part(obj.rest_state)
-    axis = T[0, :3, :3] @ np.asarray(cfg.joint_axes_in_parent)[:, :, None]  # (J, 3, 1)
+    axis = T[0, :3, :3] @ cfg.priors.joint_axes[:, :, None]  # (J, 3, 1)
     u = axis[..., 0]
-    same, which = resolve_joint_flips(T, u, cfg, obj.size_m)
+    same, which = resolve_joint_flips(T, u, cfg.priors, obj.size_m)
     assert not which.any()
     np.testing.assert_allclose(same, T)
     bad = T.copy()
     bad[0, :3, :3] = T[0, :3, :3] @ rotation_about_axis(np.array([0.0, 1.0, 0.0]), np.pi)
-    fixed, which = resolve_joint_flips(bad, u, cfg, obj.size_m)
+    fixed, which = resolve_joint_flips(bad, u, cfg.priors, obj.size_m)
     assert which.tolist() == [True, False, False]
     np.testing.assert_allclose(fixed[0, :3, :3], T[0, :3, :3], atol=1e-9)
 
@@ -173,15 +175,15 @@ def test_a_rigid_part_turned_half_a_turn_is_turned_back_by_its_shape(half_turn):
 
     axis = np.eye(3)[half_turn]
     for category in ("laptop_rigid", "mug", "bottle"):
-        cfg = ModelConfig.for_category(category, compute_category_stats(_samples(category, "train", 2)))
+        cfg = ModelConfig.default(measured_priors(category, _samples(category, "train", 2)), size="full")
         for s in _samples(category, "test", 6):
             T, S = s["cam_from_part"], s["size_m"]
             idx = [np.arange(len(s["points"]))]
-            same, which = resolve_shape_flips(T, S, s["points"], idx, cfg)
+            same, which = resolve_shape_flips(T, S, s["points"], idx, cfg.priors)
             assert not which.any() and np.allclose(same, T)
             bad = T.copy()
             bad[0, :3, :3] = T[0, :3, :3] @ rotation_about_axis(axis, np.pi)
-            fixed, which = resolve_shape_flips(bad, S, s["points"], idx, cfg)
+            fixed, which = resolve_shape_flips(bad, S, s["points"], idx, cfg.priors)
             if category == "laptop_rigid":
                 assert which[0] and rotation_angle_deg(fixed[0, :3, :3], T[0, :3, :3]) < 1e-4
                 np.testing.assert_allclose(fixed[0, :3, 3], T[0, :3, 3])

@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from ucope.errors import InputError
-from ucope.model.config import CategoryStats, ModelConfig
-from ucope.voting import VotingOptions, rotation_from_axes, vote_part, vote_parts
+from ucope.priors import CategoryPriors, JointPrior, PartPrior
+from ucope.voting import CentreOptions, VotingOptions, rotation_from_axes, vote_part, vote_parts
 from ucope.voting.rotation import refine_rotation
 
 from voting_support import angle_deg, box_surface_points, random_part, synthetic_heads
@@ -50,7 +50,7 @@ def test_awareness_drops_pairs_across_parts_and_falls_back(rng):
         h[k] = torch.where(bad[:, None], torch.randn(3000, h[k].shape[1]) * 3, h[k])
     h["part_score"] = torch.where(bad, -4.0, 4.0)
     r_on = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size)
-    r_off = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, awareness=False)
+    r_off = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, score_filter=False)
     assert r_on.num_pairs == int((~bad).sum()) and r_off.num_pairs == 3000
     _check_pose(r_on, T, size, V, False)
     assert r_on.score > r_off.score
@@ -121,12 +121,10 @@ def test_bad_inputs_raise_input_errors(rng):
         vote_part(*args, vote_range_m=V, mean_size_m=[1.0, 0.0, 1.0])
 
 
-def _config(K, sizes, V, sym=False):
-    stats = CategoryStats(vote_range_m=tuple(V), mean_size_m=tuple(tuple(s) for s in sizes), norm_scale_m=0.3)
-    return ModelConfig(
-        category="toy", part_names=tuple(f"p{k}" for k in range(K)), part_symmetry=("y" if sym else "none",) * K,
-        joint_types=(0,) * (K - 1), joint_parents=(0,) * (K - 1), joint_children=tuple(range(1, K)), stats=stats,
-    )
+def _priors(K, sizes, V, sym=False):
+    parts = tuple(PartPrior(name=f"p{k}", symmetry="y" if sym else "none", vote_range_m=V[k], mean_size_m=tuple(sizes[k])) for k in range(K))
+    joints = tuple(JointPrior(type="revolute", parent=0, child=k, axis_in_parent=(1.0, 0.0, 0.0)) for k in range(1, K))
+    return CategoryPriors(category="toy", parts=parts, joints=joints, norm_scale_m=0.3)
 
 
 @pytest.mark.parametrize("K", [1, 2, 3, 4])
@@ -158,7 +156,7 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
         for name in HEADS:
             outs[name].append(h[name])
     outputs = {name: torch.stack(v)[None] for name, v in outs.items()}
-    cfg = _config(K, sizes, V)
+    cfg = _priors(K, sizes, V)
     full_surface = VotingOptions(thin_snap_ratio=0.0)  # points on every face: no visible side to snap to
     res = vote_parts(torch.tensor(points, dtype=torch.float32)[None], torch.tensor(normals, dtype=torch.float32)[None],
                      torch.tensor(pair_idx)[None], outputs, cfg, options=full_surface)
@@ -235,7 +233,7 @@ def test_options_are_used(rng):
     T, size = random_part(rng)
     a, b, n, h, V = synthetic_heads(rng, T, size, size, 2000)
     r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size,
-                  options=VotingOptions(refine_rotation=False, use_sign_bits=False, max_axis_pairs=500, num_angles=24))
+                  options=VotingOptions(refine_rotation=False, use_sign_bits=False, max_axis_pairs=500, centre=CentreOptions(num_angles=24, max_refine_pairs=1024)))
     _check_pose(r, T, size, V, False)
     assert math.isfinite(r.score)
 
@@ -244,7 +242,7 @@ def test_thin_parts_snap_to_their_visible_face(rng):
     """A plate seen from the camera side: a centre that is off along the plate's normal is moved so that
     the visible points lie on the face towards the camera; thick parts and the arbitrary axes of a
     y-symmetric part are left alone."""
-    from ucope.voting.part import _snap_thin
+    from ucope.voting.part import snap_to_visible_face
 
     R = torch.tensor(rotation_from_axes(torch.tensor([0.0, 0.6, -0.8]), torch.tensor([1.0, 0.0, 0.0])).numpy())
     size = np.array([0.30, 0.008, 0.20])  # thin along y
@@ -255,7 +253,7 @@ def test_thin_parts_snap_to_their_visible_face(rng):
     face = centre + uv[:, :1] * 0.30 * R[:, 0] + uv[:, 1:] * 0.20 * R[:, 2] + side * 0.004 * n
     face = face + 0.0005 * torch.randn(500, 3, generator=torch.Generator().manual_seed(0))
     wrong = centre + 0.012 * n
-    fixed = _snap_thin(wrong, R, size, face, 0.25, False)
+    fixed = snap_to_visible_face(wrong, R, size, face, 0.25, False)
     assert float((fixed - centre).norm()) < 0.001
-    assert torch.equal(_snap_thin(wrong, R, np.array([0.3, 0.1, 0.2]), face, 0.25, False), wrong)  # not thin
-    assert torch.equal(_snap_thin(wrong, R, np.array([0.008, 0.3, 0.2]), face, 0.25, True), wrong)  # symmetric, thin x
+    assert torch.equal(snap_to_visible_face(wrong, R, np.array([0.3, 0.1, 0.2]), face, 0.25, False), wrong)  # not thin
+    assert torch.equal(snap_to_visible_face(wrong, R, np.array([0.008, 0.3, 0.2]), face, 0.25, True), wrong)  # symmetric, thin x

@@ -106,8 +106,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_models(args: argparse.Namespace) -> int:
-    from ..model.checkpoint import read_model_json
-    from ..model.checkpoint import list_pretrained, pretrained_dir
+    from ..model.checkpoint import list_pretrained, pretrained_dir, read_model_json
 
     names = list_pretrained()
     if not names:
@@ -118,14 +117,15 @@ def cmd_models(args: argparse.Namespace) -> int:
         cfg, info = meta["config"], meta.get("info", {})
         test = info.get("test", {})
         w = meta["weights"]
-        joints = ", ".join(("revolute", "prismatic")[t] for t in cfg["joint_types"]) or "rigid"
+        part_names = [p["name"] for p in cfg["priors"]["parts"]]
+        joints = ", ".join(j["type"] for j in cfg["priors"]["joints"]) or "rigid"
         steps, stage = [info.get("steps", "?")], info.get("initialised_from")
         while stage:  # a fine-tuned model: every stage, oldest first
             steps.insert(0, stage.get("steps", "?"))
             stage = stage.get("initialised_from")
         tuned = f" ({len(steps) - 1} fine-tuning stage{'s' if len(steps) > 2 else ''})" if len(steps) > 1 else ""
         refine = " kinematic refinement on by default;" if (info.get("defaults") or {}).get("refine") else ""
-        print(f"{name}: {len(cfg['part_names'])} part(s) ({', '.join(cfg['part_names'])}); {joints}; "
+        print(f"{name}: {len(part_names)} part(s) ({', '.join(part_names)}); {joints}; "
               f"{cfg['head']} head;{refine} {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
               f"trained {' + '.join(str(x) for x in steps)} steps{tuned}")
         if test:

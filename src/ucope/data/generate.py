@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
+from ..vocab import JOINT_TYPES
 from ..errors import DataError, InputError
-from ..objects.articulation import JOINT_TYPES
 from ..objects.categories import SPLITS, get_category, make_instance
 from ..render.views import ViewConfig, render_view
 from .images import bop_entries, merge_bop_parts, write_png
@@ -74,21 +74,18 @@ class GenerateConfig:
         }
 
     def meta(self) -> dict:
+        """``meta.json``: the settings, the category's declared structure (part names and symmetries,
+        joint tree, canonical axes, limits: :meth:`ucope.objects.articulation.ArticulatedObject.structure`
+        of the split's instance 0) and bookkeeping."""
         spec = get_category(self.category)
         return {
             **self.settings(),
             "family": spec.family, "num_parts": spec.num_parts, "part_names": list(spec.part_names),
             "joint_types": list(spec.joint_types), "joint_type_codes": list(JOINT_TYPES),
             "symmetry": list(spec.symmetry), "num_shards": self.num_shards, "ucope_version": __version__,
+            "structure": make_instance(self.category, self.split, 0, self.seed).structure(),
         }
 
-    @classmethod
-    def from_meta(cls, meta: dict) -> "GenerateConfig":
-        keys = ("category", "split", "num", "seed", "shard_size", "views_per_instance", "max_points", "normal_k", "images")
-        try:
-            return cls(**{k: meta[k] for k in keys}, view=ViewConfig.from_dict(meta["view"]))
-        except (KeyError, TypeError) as e:
-            raise DataError(f"meta.json lacks or has a bad setting: {e}") from None
 
 
 def sample_rng(category: str, split: str, seed: int, index: int) -> np.random.Generator:

@@ -44,6 +44,11 @@ class GeneratedSamples(Sequence):
         self.epoch_size = int(epoch_size)
         self.epoch = 0
 
+    @property
+    def meta(self) -> dict:
+        """The ``meta.json`` that ``ucope generate`` would write for this stream (its ``num`` nominal)."""
+        return self.config.meta()
+
     def set_epoch(self, epoch: int) -> None:
         self.epoch = int(epoch)
 

@@ -12,8 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
-from ..plotting import PART_COLOURS, pyplot, save_figure
-from ..plotting import to_plot_axes as _to_plot
+from ..plotting import PART_COLOURS, pyplot, save_figure, to_plot_axes
 
 __all__ = ["plot_samples", "plot_object", "draw_sample"]
 
@@ -25,10 +24,10 @@ def draw_sample(ax, sample: dict, title: str | None = None, max_points: int = 30
     if len(pts) > max_points:
         sel = np.linspace(0, len(pts) - 1, max_points).astype(int)
         pts, labels = pts[sel], labels[sel]
-    P = _to_plot(pts)
+    P = to_plot_axes(pts)
     cols = np.array(PART_COLOURS)[labels % len(PART_COLOURS)]
     ax.scatter(P[:, 0], P[:, 1], P[:, 2], c=cols, s=1.5, depthshade=False)
-    corners = _to_plot(box_corners(np.asarray(sample["cam_from_part"]), np.asarray(sample["size_m"])))
+    corners = to_plot_axes(box_corners(np.asarray(sample["cam_from_part"]), np.asarray(sample["size_m"])))
     for k, c in enumerate(corners):
         for a, b in BOX_EDGES:
             ax.plot(*zip(c[a], c[b]), box_style, color=PART_COLOURS[k % len(PART_COLOURS)], lw=1.0)
@@ -37,13 +36,13 @@ def draw_sample(ax, sample: dict, title: str | None = None, max_points: int = 30
         L = 0.25 * float(np.min(np.asarray(sample["size_m"])[k])) + 1e-3
         o = T[:3, 3]
         for d, colour in zip(T[:3, :3].T, ("r", "g", "b")):
-            seg = _to_plot(np.stack([o, o + L * d]))
+            seg = to_plot_axes(np.stack([o, o + L * d]))
             ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color=colour, lw=1.5)
     diag = float(np.linalg.norm(np.ptp(pts, axis=0))) if len(pts) else 0.1
     for piv, axis in zip(np.asarray(sample["joint_pivot"]).reshape(-1, 3), np.asarray(sample["joint_axis"]).reshape(-1, 3)):
-        seg = _to_plot(np.stack([piv - 0.35 * diag * axis, piv + 0.35 * diag * axis]))
+        seg = to_plot_axes(np.stack([piv - 0.35 * diag * axis, piv + 0.35 * diag * axis]))
         ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color="k", lw=2.0)
-        ax.scatter(*_to_plot(piv), color="k", s=12)
+        ax.scatter(*to_plot_axes(piv), color="k", s=12)
     allp = np.concatenate([P, corners.reshape(-1, 3)])
     centre = 0.5 * (allp.min(0) + allp.max(0))
     r = 0.5 * float(np.max(np.ptp(allp, axis=0)))

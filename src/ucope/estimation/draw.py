@@ -7,8 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..plotting import PART_COLOURS, pyplot, save_figure
-from ..plotting import to_plot_axes as _to_plot
+from ..plotting import PART_COLOURS, pyplot, save_figure, to_plot_axes
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
 from .result import PoseResult
@@ -17,7 +16,7 @@ __all__ = ["plot_results", "draw_result"]
 
 
 def _draw_boxes(ax, cam_from_part, size_m, style: str, lw: float) -> np.ndarray:
-    corners = _to_plot(box_corners(np.asarray(cam_from_part), np.asarray(size_m)))
+    corners = to_plot_axes(box_corners(np.asarray(cam_from_part), np.asarray(size_m)))
     for k, c in enumerate(corners):
         for a, b in BOX_EDGES:
             ax.plot(*zip(c[a], c[b]), style, color=PART_COLOURS[k % len(PART_COLOURS)], lw=lw)
@@ -26,9 +25,9 @@ def _draw_boxes(ax, cam_from_part, size_m, style: str, lw: float) -> np.ndarray:
 
 def _draw_axes(ax, pivots, axes, length: float, colour: str) -> None:
     for piv, u in zip(pivots, axes):
-        seg = _to_plot(np.stack([piv - length * u, piv + length * u]))
+        seg = to_plot_axes(np.stack([piv - length * u, piv + length * u]))
         ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color=colour, lw=2.0)
-        ax.scatter(*_to_plot(piv), color=colour, s=12)
+        ax.scatter(*to_plot_axes(piv), color=colour, s=12)
 
 
 def draw_result(ax, points: np.ndarray, result: PoseResult, sample: dict | None = None, title: str | None = None, max_points: int = 3000) -> None:
@@ -40,7 +39,7 @@ def draw_result(ax, points: np.ndarray, result: PoseResult, sample: dict | None 
     if len(pts) > max_points:
         sel = np.linspace(0, len(pts) - 1, max_points).astype(int)
         pts, labels = pts[sel], labels[sel]
-    P = _to_plot(pts)
+    P = to_plot_axes(pts)
     ax.scatter(P[:, 0], P[:, 1], P[:, 2], c=np.array(PART_COLOURS)[labels % len(PART_COLOURS)], s=1.5, depthshade=False)
     allp = [P, _draw_boxes(ax, result.cam_from_part, result.size_m, "-", 1.2)]
     diag = float(np.linalg.norm(np.ptp(pts, axis=0))) if len(pts) else 0.1

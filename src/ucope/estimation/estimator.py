@@ -25,76 +25,84 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from ..errors import DataError, InputError
+from ..errors import InputError
 from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
-from ..model.checkpoint import find_model, list_pretrained, load_model, pretrained_dir
-from ..model.network import AXIS_HEADS, UCOPENet
+from ..model.checkpoint import find_model, load_model
+from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
-from ..voting.object import regressed_object, vote_object
+from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
+from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
 from .inputs import NORMAL_K, label_points, prepare_points, rgbd_points
 from .result import JointEstimate, PartEstimate, PoseResult
 
 __all__ = ["Estimator"]
 
-JOINT_TYPE_NAMES = ("revolute", "prismatic")
-
-VOTE_HEADS = ("mu_logits", "nu_logits", "gamma", "part_score")
-"""The pair heads computed for every sampled pair (the axis heads only for the pairs voting the axes)."""
-
 
 class Estimator:
     """Estimates the 9D part poses, joints and segmentation of objects of one category.
 
+    Everything it needs about the category comes from the model (``model.cfg.priors``): it never
+    imports the generators.
+
     Args:
-        model: a trained :class:`ucope.model.network.UCOPENet`.
+        model: a trained :class:`ucope.model.network.UCOPENet` (or the regression baseline).
         name: the model's name (shown in results).
         num_pairs: point pairs per object (split over the parts); the paper uses 20,000.
-        awareness: part awareness (only pairs with part score > 0.5 vote for a part, pairs drawn from
-            the segmented part) and joint awareness (only points with joint score and heatmap > 0.5
-            locate a joint); ``False`` for the ablation.
+        awareness: the paper's joint and part awareness (section 4.5): only pairs whose part score
+            passes 0.5 vote for a part, part ``k``'s pairs are drawn from the points segmented as
+            ``k``, and only points whose joint score and heatmap pass 0.5 locate a joint. ``False``
+            turns all three off (the ablation of Table 3).
+        score_filter, segment_pairs: override the first two mechanisms separately (``None``: follow
+            ``awareness``), to measure each on its own.
         refine: the kinematic refinement (off here; :meth:`load` takes the model's default, see
             docs/results.md for its measured effect).
         resolve_flips: turn back parts whose rotation is a half turn away from what their revolute
-            joint allows (:func:`ucope.voting.kinematic.resolve_joint_flips`) and rigid objects whose
-            rotation is a half turn away from what their shape fits
-            (:func:`ucope.voting.kinematic.resolve_shape_flips`); on by default, measured in
-            docs/voting.md.
+            joint allows (:func:`ucope.voting.resolve_joint_flips`) and rigid objects whose rotation is
+            a half turn away from what their shape fits (:func:`ucope.voting.resolve_shape_flips`); on
+            by default, measured in docs/voting.md.
         seed: seed of the subsampling and pair draws.
         device: torch device of the network.
+        max_input_points: clouds above this many points are subsampled uniformly first (4096: the
+            density the models were trained on).
+        options: :class:`ucope.voting.VotingOptions`.
     """
 
     def __init__(self, model: UCOPENet, name: str = "", num_pairs: int = 20000, awareness: bool = True,
                  refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096,
-                 resolve_flips: bool = True):
+                 resolve_flips: bool = True, score_filter: bool | None = None, segment_pairs: bool | None = None,
+                 options: VotingOptions | None = None):
         if int(num_pairs) < 10:
             raise InputError(f"num_pairs must be at least 10, got {num_pairs}")
         self.model = model.to(device).eval()
         self.cfg = model.cfg
+        self.priors = model.cfg.priors
         self.name = name or self.cfg.category
         self.num_pairs = int(num_pairs)
         self.awareness = bool(awareness)
+        self.score_filter = self.awareness if score_filter is None else bool(score_filter)
+        self.segment_pairs = self.awareness if segment_pairs is None else bool(segment_pairs)
         self.refine = bool(refine)
         self.resolve_flips = bool(resolve_flips)
         self.seed = int(seed)
         self.device = torch.device(device)
         self.max_input_points = int(max_input_points)
+        self.options = options or VotingOptions()
+        self.shapes = ShapeIndex.from_priors(self.priors)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
-    def load(cls, model: str | os.PathLike, refine: bool | None = None, **kwargs) -> "Estimator":
+    def load(cls, model: str | os.PathLike, refine: bool | None = None, **kwargs) -> Estimator:
         """An estimator from a run folder / model JSON path, or the name of a shipped model
-        (``Estimator.load("laptop")``; :func:`list_pretrained` lists them).
+        (``Estimator.load("laptop")``; :func:`ucope.model.checkpoint.list_pretrained` lists them).
 
         ``refine=None`` takes the model's own default (``info.defaults.refine`` of its JSON, set when it
-        was packaged where the refinement measured better: the shipped eyeglasses, drawer, dishwasher
-        and scissors models; off otherwise). Other keyword arguments: as the constructor."""
+        was packaged where the refinement measured better). Other keyword arguments: as the constructor."""
         path = find_model(model)
         net, meta = load_model(path)
         if refine is None:
@@ -146,14 +154,15 @@ class Estimator:
                 hidden = out.pop("pair_hidden")[0]  # (K, M, H)
         t3 = time.perf_counter()
         if cfg.head == "regression":
-            v = regressed_object(p_net, out, cfg, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips)
+            v = regressed_object(p_net, out, self.priors, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips)
         else:
             def axis_heads(k: int, rows: torch.Tensor) -> dict:
                 with torch.no_grad():
                     return self.model.pair_outputs(hidden[k].index_select(0, rows.to(hidden.device)), AXIS_HEADS, part=k)
 
-            v = vote_object(p_net, n_net, pair_idx, out, cfg, awareness=self.awareness, refine=self.refine,
-                            resolve_flips=self.resolve_flips, axis_heads=axis_heads)
+            v = vote_object(p_net, n_net, pair_idx, out, self.priors, awareness=self.awareness, refine=self.refine,
+                            options=self.options, resolve_flips=self.resolve_flips, axis_heads=axis_heads, shapes=self.shapes,
+                            score_filter=self.score_filter)
         parts, joints = self._estimates(v)
         t4 = time.perf_counter()
         all_labels = label_points(raw, finite, p_net, labels)
@@ -164,31 +173,31 @@ class Estimator:
                           timings_ms=timings, model=self.name, num_points=len(raw))
 
     def _sample_pairs(self, labels: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """``(K, M, 2)`` pair indices, ``M = num_pairs // K``: with awareness, both points of part
+        """``(K, M, 2)`` pair indices, ``M = num_pairs // K``: with ``segment_pairs``, both points of part
         ``k``'s pairs come from the points segmented as ``k`` (all points if fewer than 3 are)."""
         K = self.cfg.num_parts
         M = max(1, self.num_pairs // K)
         N = len(labels)
         out = np.empty((K, M, 2), dtype=np.int64)
         for k in range(K):  # a handful of parts
-            own = np.flatnonzero(labels == k) if self.awareness else np.arange(N)
+            own = np.flatnonzero(labels == k) if self.segment_pairs else np.arange(N)
             pool = own if len(own) >= 3 else np.arange(N)
             out[k] = pool[rng.integers(0, len(pool), size=(M, 2))]
         return out
 
     def _estimates(self, v: dict) -> tuple[list[PartEstimate], list[JointEstimate]]:
         """The result's parts and joints from the dict of :func:`vote_object` / :func:`regressed_object`."""
-        cfg = self.cfg
-        parts = [PartEstimate(index=k, label=cfg.part_names[k], cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
+        pri = self.priors
+        parts = [PartEstimate(index=k, label=pp.name, cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
                               size_m=np.asarray(v["size_m"][k], np.float64), score=float(v["score"][k]),
-                              symmetry=cfg.part_symmetry[k], num_votes=int(v["num_pairs"][k]))
-                 for k in range(cfg.num_parts)]
+                              symmetry=pp.symmetry, num_votes=int(v["num_pairs"][k]))
+                 for k, pp in enumerate(pri.parts)]
         joints = []
-        for j in range(cfg.num_joints):
-            jt = JOINT_TYPE_NAMES[cfg.joint_types[j]]
+        for j, jp in enumerate(pri.joints):
             piv = np.asarray(v["joint_pivot"][j], np.float64)
-            joints.append(JointEstimate(type=jt, parent=cfg.joint_parents[j], child=cfg.joint_children[j],
-                                        pivot_m=piv if jt == "revolute" and np.all(np.isfinite(piv)) else None,
+            revolute = jp.type == JointType.REVOLUTE
+            joints.append(JointEstimate(type=jp.type.label, parent=jp.parent, child=jp.child,
+                                        pivot_m=piv if revolute and np.all(np.isfinite(piv)) else None,
                                         axis=np.asarray(v["joint_axis"][j], np.float64), state=float(v["joint_state"][j]),
                                         score=float(v["joint_score"][j])))
         return parts, joints

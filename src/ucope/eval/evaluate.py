@@ -178,7 +178,7 @@ def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_
         "head": cfg.head,
         "category": cfg.category,
         "part_names": list(cfg.part_names),
-        "part_symmetry": list(cfg.part_symmetry),
+        "part_symmetry": [p.symmetry for p in cfg.priors.parts],
         "settings": {"num_pairs": estimator.num_pairs, "awareness": estimator.awareness,
                      "refine": estimator.refine, "resolve_flips": getattr(estimator, "resolve_flips", False), "seed": estimator.seed},
         "data": dict(data_info or {}, num_samples=n),

@@ -25,22 +25,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..vocab import JointType
 
 __all__ = ["box_support", "revolute_angle", "joint_state_from_poses", "prismatic_zero_offset", "joint_type_code"]
 
 
 def joint_type_code(joint_type) -> np.ndarray:
-    """Joint type(s) as integer codes (0 revolute, 1 prismatic); accepts codes or names."""
-    arr = np.asarray(joint_type)
-    if arr.dtype.kind in "USO":
-        names = {"revolute": 0, "prismatic": 1}
-        try:
-            return np.vectorize(lambda s: names[str(s)], otypes=[np.int64])(arr)
-        except KeyError as e:
-            raise InputError(f"joint type must be 'revolute' or 'prismatic', got {e}") from None
-    codes = arr.astype(np.int64)
-    if codes.size and (not np.all(codes == arr) or np.any((codes != 0) & (codes != 1))):
-        raise InputError(f"joint type codes must be 0 (revolute) or 1 (prismatic), got {joint_type}")
+    """Joint type(s) as :class:`ucope.vocab.JointType` integer codes (revolute or prismatic); accepts
+    codes, words or enum members, scalar or array."""
+    arr = np.asarray(joint_type, dtype=object)
+    codes = np.array([int(JointType.parse(t)) for t in arr.reshape(-1)], dtype=np.int64).reshape(arr.shape)
+    if np.any(codes == int(JointType.FIXED)):
+        raise InputError("a fixed joint has no state")
     return codes
 
 
@@ -123,7 +119,7 @@ def joint_state_from_poses(
     R_rel = np.einsum("...ji,...jk->...ik", Rp, Tc[..., :3, :3])
     u_p = np.einsum("...ji,...j->...i", Rp, u)
     q = np.broadcast_to(revolute_angle(R_rel, u_p), batch).copy()
-    prism = np.broadcast_to(jt == 1, batch)
+    prism = np.broadcast_to(jt == int(JointType.PRISMATIC), batch)
     if np.any(prism):
         if size_parent is None or size_child is None:
             raise InputError("prismatic joints need size_parent and size_child")

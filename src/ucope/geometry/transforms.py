@@ -31,6 +31,7 @@ __all__ = [
     "look_at_rotation",
     "normalize",
     "rotation_angle_deg",
+    "closest_rotation",
 ]
 
 
@@ -127,3 +128,12 @@ def rotation_angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
     R = np.einsum("...ji,...jk->...ik", R_a, R_b)
     cos = (np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def closest_rotation(M: np.ndarray) -> np.ndarray:
+    """The rotation(s) closest to ``(..., 3, 3)`` matrices in the Frobenius norm (orthogonal Procrustes:
+    ``U diag(1, 1, det(U V^T)) V^T`` from the SVD ``M = U S V^T``, so the determinant is +1)."""
+    U, _, Vt = np.linalg.svd(np.asarray(M, dtype=np.float64))
+    s = np.where(np.linalg.det(U @ Vt) < 0, -1.0, 1.0)
+    U[..., :, 2] *= s[..., None]
+    return U @ Vt

@@ -8,10 +8,14 @@ refuses a weights file that does not match (tampered, truncated, or from another
 Files
 -----
 * A **model** (what inference needs): ``<stem>.json`` + ``<stem>.safetensors`` (``model.json`` /
-  ``model.safetensors`` in a training run folder). The JSON holds the format tag, the
-  :class:`ModelConfig`, the weights' digest and dtype, and free-form ``info`` (the model card).
+  ``model.safetensors`` in a training run folder). The JSON holds the format tag, the conventions
+  version, the :class:`ModelConfig` (with the category's :class:`ucope.priors.CategoryPriors`), the
+  weights' digest and dtype, and free-form ``info`` (the model card). The safetensors file holds the
+  network's weights and, under ``priors.``, the priors' shape templates. A model of another format or
+  conventions version is refused with both versions named.
 * A **training checkpoint**: ``checkpoint.json`` + ``checkpoint-<step>.safetensors`` holding the model
-  weights (``model.<name>``) and the optimiser's tensors (``optim.<param>.<key>``); the JSON holds the
+  weights (``model.<name>``), the priors' tensors (``priors.<name>``) and the optimiser's tensors
+  (``optim.<param>.<key>``); the JSON holds the
   rest of the optimiser and scheduler state, the step/epoch counters and the training configuration.
   The weights file is written first under a new name and the JSON replaced atomically after it, so a
   run killed at any moment leaves a consistent checkpoint behind.
@@ -24,6 +28,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+import safetensors.torch
 import torch
 
 from ..versions import CHECKPOINT_FORMAT, CONVENTIONS_VERSION, MODEL_FORMAT, __version__
@@ -49,14 +54,6 @@ __all__ = [
 _DTYPES = {"float32": torch.float32, "float16": torch.float16, "bfloat16": torch.bfloat16}
 
 
-def _safetensors():
-    try:
-        import safetensors.torch as st
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise InputError("reading or writing ucope weights needs safetensors: pip install 'ucope[models]'") from None
-    return st
-
-
 def sha256_file(path: str | os.PathLike) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -66,14 +63,12 @@ def sha256_file(path: str | os.PathLike) -> str:
 
 
 def _write_weights(path: Path, tensors: dict[str, torch.Tensor]) -> dict[str, Any]:
-    st = _safetensors()
-    data = st.save({k: v.detach().contiguous().cpu() for k, v in tensors.items()})
+    data = safetensors.torch.save({k: v.detach().contiguous().cpu() for k, v in tensors.items()})
     atomic_write_bytes(path, data)
     return {"file": path.name, "sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
 
 
 def _read_weights(json_path: Path, desc: dict) -> dict[str, torch.Tensor]:
-    st = _safetensors()
     try:
         name = str(desc["file"])
         digest, size = str(desc["sha256"]), int(desc["bytes"])
@@ -91,7 +86,7 @@ def _read_weights(json_path: Path, desc: dict) -> dict[str, torch.Tensor]:
     if hashlib.sha256(data).hexdigest() != digest:
         raise DataError(f"weights file {path} does not match the SHA-256 recorded in {json_path}: it was modified")
     try:
-        return st.load(data)
+        return safetensors.torch.load(data)
     except Exception as e:  # safetensors raises its own error types
         raise DataError(f"weights file {path} is not a valid safetensors file ({e})") from None
 
@@ -110,8 +105,8 @@ def save_model(
         path: a folder (writes ``model.json`` / ``model.safetensors`` in it) or a ``.json`` path
             (writes ``<stem>.json`` / ``<stem>.safetensors``).
         info: JSON-safe extra fields (the model card: training data, steps, validation figures...).
-        dtype: storage precision of floating-point weights: ``"float32"``, ``"float16"`` or
-            ``"bfloat16"``; loading always returns float32.
+        dtype: storage precision of floating-point weights and priors arrays: ``"float32"``,
+            ``"float16"`` or ``"bfloat16"``; loading always returns float32.
 
     Returns:
         the JSON path.
@@ -119,7 +114,9 @@ def save_model(
     if dtype not in _DTYPES:
         raise InputError(f"dtype must be one of {sorted(_DTYPES)}, got {dtype!r}")
     json_path = _json_path(path, create=True)
-    tensors = {k: (v.to(_DTYPES[dtype]) if v.is_floating_point() else v) for k, v in model.state_dict().items()}
+    tensors = {k: v for k, v in model.state_dict().items()}
+    tensors.update(_priors_tensors(model.cfg))
+    tensors = {k: (v.to(_DTYPES[dtype]) if v.is_floating_point() else v) for k, v in tensors.items()}
     weights = _write_weights(json_path.with_suffix(".safetensors"), tensors)
     atomic_write_json(json_path, {
         "format": MODEL_FORMAT,
@@ -130,6 +127,26 @@ def save_model(
         "info": info or {},
     })
     return json_path
+
+
+def _priors_tensors(cfg: ModelConfig) -> dict[str, torch.Tensor]:
+    """The priors' arrays (shape templates) as float32 tensors named ``priors.<name>``."""
+    return {f"priors.{k}": torch.from_numpy(v.astype("float32")) for k, v in cfg.priors.tensors().items()}
+
+
+def _split_priors(tensors: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], dict]:
+    """``(network tensors, priors arrays)`` of a weights file."""
+    pri = {k[len("priors."):]: v.float().numpy() for k, v in tensors.items() if k.startswith("priors.")}
+    return {k: v for k, v in tensors.items() if not k.startswith("priors.")}, pri
+
+
+def _config(meta: dict, where: Path, priors_tensors: dict) -> ModelConfig:
+    try:
+        return ModelConfig.from_dict(meta["config"], priors_tensors)
+    except KeyError:
+        raise DataError(f"{where} holds no model config") from None
+    except InputError as e:
+        raise DataError(f"{where}: {e}") from None
 
 
 def _json_path(path: str | os.PathLike, create: bool = False) -> Path:
@@ -192,11 +209,19 @@ def resolve_model_path(path: str | os.PathLike) -> Path:
 
 
 def read_model_json(path: str | os.PathLike) -> dict:
-    """The validated model JSON (format tag and config checked), without loading the weights."""
+    """The model JSON with its format tag and conventions version checked, without loading the weights.
+
+    Raises :class:`DataError` naming both versions when the file is of another format or conventions
+    version (re-package or retrain the model with this ucope)."""
     j = resolve_model_path(path)
     meta = read_json(j)
-    if not isinstance(meta, dict) or meta.get("format") != MODEL_FORMAT:
-        raise DataError(f"{j} is not a ucope model description (format {meta.get('format') if isinstance(meta, dict) else None!r}, expected {MODEL_FORMAT!r})")
+    fmt = meta.get("format") if isinstance(meta, dict) else None
+    if fmt != MODEL_FORMAT:
+        raise DataError(f"{j} is not a model this ucope ({__version__}) reads: format {fmt!r}, expected {MODEL_FORMAT!r}")
+    conv = str(meta.get("conventions_version"))
+    if conv != CONVENTIONS_VERSION:
+        raise DataError(f"{j} was made under conventions version {conv}, this ucope uses version {CONVENTIONS_VERSION} "
+                        "(frames or units differ: retrain or re-package the model)")
     return meta
 
 
@@ -205,16 +230,12 @@ def load_model(path: str | os.PathLike, device: str | torch.device = "cpu"):
 
     Raises :class:`DataError` for a missing, truncated, tampered or mismatched file.
     """
-    from .network import build_model
+    from .factory import build_model
 
     j = resolve_model_path(path)
     meta = read_model_json(j)
-    try:
-        cfg = ModelConfig.from_dict(meta["config"])
-    except (InputError, KeyError) as e:
-        raise DataError(f"{j}: {e}") from None
-    tensors = _read_weights(j, meta.get("weights", {}))
-    model = build_model(cfg)
+    tensors, pri = _split_priors(_read_weights(j, meta.get("weights", {})))
+    model = build_model(_config(meta, j, pri))
     _load_state(model, tensors, j)
     return model.to(device).eval(), meta
 
@@ -245,6 +266,7 @@ def save_checkpoint(run: str | os.PathLike, model: torch.nn.Module, optimizer: t
     run = Path(run)
     run.mkdir(parents=True, exist_ok=True)
     tensors = {f"model.{k}": v for k, v in model.state_dict().items()}
+    tensors.update(_priors_tensors(model.cfg))
     opt = optimizer.state_dict()
     opt_scalars: dict[str, dict[str, Any]] = {}
     for pid, st in opt["state"].items():
@@ -276,14 +298,17 @@ def load_checkpoint(run: str | os.PathLike, model: torch.nn.Module | None = None
     """Read a run's checkpoint; restore ``model`` and ``optimizer`` in place if given.
 
     Returns:
-        the checkpoint JSON (``config``, ``state``...). Raises :class:`DataError` for a missing,
-        truncated or tampered checkpoint, or one whose weights do not fit ``model``.
+        the checkpoint JSON (``config``, ``state``...) with ``model_config`` added: its
+        :class:`ModelConfig` (priors included). Raises :class:`DataError` for a missing, truncated or
+        tampered checkpoint, one of another format, or one whose weights do not fit ``model``.
     """
     j = Path(run) / "checkpoint.json"
     meta = read_json(j)
-    if not isinstance(meta, dict) or meta.get("format") != CHECKPOINT_FORMAT:
-        raise DataError(f"{j} is not a ucope training checkpoint")
-    tensors = _read_weights(j, meta.get("weights", {}))
+    fmt = meta.get("format") if isinstance(meta, dict) else None
+    if fmt != CHECKPOINT_FORMAT:
+        raise DataError(f"{j} is not a training checkpoint this ucope ({__version__}) resumes: format {fmt!r}, expected {CHECKPOINT_FORMAT!r}")
+    tensors, pri = _split_priors(_read_weights(j, meta.get("weights", {})))
+    meta["model_config"] = _config(meta, j, pri)
     if model is not None:
         _load_state(model, {k[6:]: v for k, v in tensors.items() if k.startswith("model.")}, j)
     if optimizer is not None:

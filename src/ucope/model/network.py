@@ -28,14 +28,15 @@ import torch.nn.functional as F
 from torch import nn
 
 from ..errors import InputError
+from ..vocab import JointType
 from .config import ModelConfig
 from .pointnet2 import PointNet2Encoder
 from .targets import joint_point_targets, pair_features, pair_vote_targets, two_hot, bin_centres
 
-__all__ = ["UCOPENet", "PerGroupLinear", "per_group_linear", "build_model", "AXIS_HEADS"]
+__all__ = ["UCOPENet", "PerGroupLinear", "per_group_linear"]
 
-AXIS_HEADS = ("alpha_logits", "beta_logits", "sign_logits")
-"""The pair heads only the axis votes read (:meth:`UCOPENet.pair_outputs` computes them lazily)."""
+REVOLUTE = int(JointType.REVOLUTE)
+
 
 
 class PerGroupLinear(nn.Module):
@@ -88,13 +89,13 @@ class UCOPENet(nn.Module):
         if J > 0:
             self.joint_mlp = _mlp(C, H, 2)
             self.joint_out = PerGroupLinear(J, H, 8)
-        stats = cfg.stats
-        self.register_buffer("vote_range", torch.tensor(stats.vote_range_m, dtype=torch.float32), persistent=False)
-        self.register_buffer("mean_size", torch.tensor(stats.mean_size_m, dtype=torch.float32), persistent=False)
-        self.register_buffer("joint_parent_idx", torch.tensor(cfg.joint_parents, dtype=torch.long), persistent=False)
-        self.register_buffer("joint_child_idx", torch.tensor(cfg.joint_children, dtype=torch.long), persistent=False)
-        self.register_buffer("symmetric", torch.tensor([s == "y" for s in cfg.part_symmetry]), persistent=False)
-        self.norm_scale = float(stats.norm_scale_m)
+        pri = cfg.priors
+        self.register_buffer("vote_range", torch.tensor(pri.vote_range_m, dtype=torch.float32), persistent=False)
+        self.register_buffer("mean_size", torch.tensor(pri.mean_size_m, dtype=torch.float32), persistent=False)
+        self.register_buffer("joint_parent_idx", torch.tensor([j.parent for j in pri.joints], dtype=torch.long), persistent=False)
+        self.register_buffer("joint_child_idx", torch.tensor([j.child for j in pri.joints], dtype=torch.long), persistent=False)
+        self.register_buffer("symmetric", torch.tensor(pri.symmetric, dtype=torch.bool), persistent=False)
+        self.norm_scale = float(pri.norm_scale_m)
 
     def _build_pose_heads(self, C: int, K: int, H: int) -> None:
         """The pair ("PPF") encoder: per pair and part, the voting parameters and the part score."""
@@ -344,7 +345,7 @@ class UCOPENet(nn.Module):
         heat_l, score_l = out["joint_heat"], out["joint_score"]
         l_heat = F.binary_cross_entropy_with_logits(heat_l, t["heat"], reduction="none").mean(-1)  # (B, J)
         l_score = F.binary_cross_entropy_with_logits(score_l, t["score"], reduction="none").mean(-1)
-        near = (t["heat"] > 0).to(pts.dtype) * (jtype == 0).to(pts.dtype).unsqueeze(-1)
+        near = (t["heat"] > 0).to(pts.dtype) * (jtype == REVOLUTE).to(pts.dtype).unsqueeze(-1)
         off_err = F.smooth_l1_loss(out["joint_offset"] / s, t["offset"] / s, reduction="none", beta=0.05).sum(-1)
         l_off = (off_err * near).sum(-1) / near.sum(-1).clamp_min(1.0)
         u = axis.unsqueeze(2)  # (B, J, 1, 3)
@@ -354,14 +355,14 @@ class UCOPENet(nn.Module):
         # Equation (1): heat-weighted pivot; equation (3) on it and on the mean direction.
         H = torch.sigmoid(heat_l)
         p_hat = (H.unsqueeze(-1) * (pts.unsqueeze(1) + out["joint_offset"])).sum(2) / H.sum(-1, keepdim=True).clamp_min(1e-6)
-        l_pvt = torch.cross(p_hat - pivot, axis, dim=-1).norm(dim=-1) / s * (jtype == 0).to(pts.dtype)
+        l_pvt = torch.cross(p_hat - pivot, axis, dim=-1).norm(dim=-1) / s * (jtype == REVOLUTE).to(pts.dtype)
         w = torch.sigmoid(score_l)
         u_hat = F.normalize((w.unsqueeze(-1) * out["joint_dir"]).sum(2), dim=-1, eps=1e-8)
         l_dir = (u_hat - axis).norm(dim=-1)
         per_joint = (l_pvt + l_dir + l_heat + l_score + l_off + l_dir_pt).mean(0)  # (J,)
         with torch.no_grad():
             cosang = (u_hat * axis).sum(-1).clamp(-1, 1)
-            rev = (jtype == 0).to(pts.dtype)
+            rev = (jtype == REVOLUTE).to(pts.dtype)
             logs.update(
                 joint_heat=float(l_heat.mean()), joint_score=float(l_score.mean()), joint_offset=float(l_off.mean()),
                 joint_pivot=float(l_pvt.mean()), joint_dir=float(l_dir.mean()),
@@ -369,13 +370,3 @@ class UCOPENet(nn.Module):
                 pivot_err_m=float((l_pvt * s).sum() / rev.sum().clamp_min(1.0)),
             )
         return per_joint.sum()
-
-
-def build_model(cfg: ModelConfig) -> UCOPENet:
-    """The network ``cfg`` describes: :class:`UCOPENet` (``cfg.head == "voting"``) or the
-    direct-regression baseline :class:`ucope.model.regression.RegressionNet` (``"regression"``)."""
-    if cfg.head == "regression":
-        from .regression import RegressionNet
-
-        return RegressionNet(cfg)
-    return UCOPENet(cfg)

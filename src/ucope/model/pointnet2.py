@@ -33,8 +33,7 @@ Speed-ups, all exact in real arithmetic (equal to the textbook formulation up to
 * Neighbour searches use ``|a|^2 + |b|^2 - 2 a.b`` (one batched matmul) and ``topk``, without autograd,
   a few batch items at a time on CPU, then recompute the few selected distances exactly.
 
-Measured on 2 CPU threads, batch 8, float32 (forward + backward, FPS indices precomputed): default
-config with N = 2048 ~0.29 s; ``width=0.5, npoints=(256, 64)`` with N = 1024 ~0.05 s.
+Step times of both sizes: benchmarks/bench_train.py (figures in docs/results.md).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ same data, steps and budget (``ModelConfig.head = "regression"``). Only the pose
   a per-part MLP regresses
   - the rotation ``cam_from_part[:3, :3]`` as the 6D representation of Zhou et al. (CVPR 2019): the
     first two columns (x, y), made orthonormal by Gram-Schmidt, ``z = x cross y``;
-  - the box centre as an offset from the cloud centroid in units of ``stats.norm_scale_m``;
+  - the box centre as an offset from the cloud centroid in units of ``priors.norm_scale_m``;
   - ``gamma = log(size_m) - log(mean_size_m)`` (3 values), as U-COPE's scale head.
 * Pose loss per part: L1 (summed over entries) between the predicted and ground-truth rotation
   matrices (for a part symmetric about y, between the y columns only), smooth L1 on the normalised centre offset, MSE on

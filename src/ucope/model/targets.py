@@ -2,7 +2,7 @@
 
 Everything is batched torch in the camera frame (metres, OpenCV axes), differentiable-free (targets).
 The voting parameters of a point pair ``(a, b)`` for part ``k`` with box centre ``c``, up axis ``y_k``
-and right axis ``x_k`` (columns 1 and 0 of the part's rotation) are (anchors.md section 2):
+and right axis ``x_k`` (columns 1 and 0 of the part's rotation) are (as in CPPF, Wang et al. 2022):
 
 * ``e = (a - b) / |a - b|``;
 * ``mu = (a - c) . e`` (signed): the foot of the perpendicular from ``c`` to the pair's line is
@@ -20,6 +20,8 @@ exactly these.
 from __future__ import annotations
 
 import torch
+
+from ..vocab import JointType
 
 __all__ = [
     "pair_vote_targets",
@@ -134,7 +136,7 @@ def joint_point_targets(
     d = perp.norm(dim=-1)
     r = torch.as_tensor(heat_radius_m, dtype=points.dtype, device=points.device)
     r = r.reshape(-1, 1, 1) if r.ndim == 1 else r
-    revolute = (joint_type == 0).unsqueeze(-1)  # (B, J, 1)
+    revolute = (joint_type == int(JointType.REVOLUTE)).unsqueeze(-1)  # (B, J, 1)
     lab = labels.unsqueeze(1)  # (B, 1, N)
     on_child = lab == children.view(1, -1, 1)
     on_parent = lab == parents.view(1, -1, 1)

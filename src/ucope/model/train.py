@@ -21,7 +21,7 @@ Determinism: the model's initial weights come from ``seed``; epoch ``e``'s sampl
 and item ``i``'s points and pairs are drawn from ``(seed, e, i)``. A run resumed from a checkpoint at
 step ``s`` therefore sees exactly the batches an uninterrupted run sees after step ``s``, and on the CPU
 reaches bit-identical parameters. The learning rate is a function of the step: ``lr * lr_gamma **
-floor(epoch / lr_step_epochs)`` (the paper: Adam, 1e-3, x0.1 every 10 epochs).
+floor(epoch / lr_step_epochs)`` (the paper: 1e-3, x0.1 every 10 epochs; it names no optimiser, we use Adam).
 """
 
 from __future__ import annotations
@@ -48,8 +48,10 @@ from ..fileio import atomic_write_json
 from ..errors import DataError, InputError, UcopeError
 from .batch import TrainingItems, batch_to, collate_items
 from .checkpoint import find_model, load_checkpoint, load_model, read_model_json, save_checkpoint, save_model
-from .config import ModelConfig, compute_category_stats
-from .network import UCOPENet, build_model
+from ..priors import measure_priors
+from .config import ModelConfig
+from .factory import build_model
+from .network import UCOPENet
 
 __all__ = ["TrainConfig", "TrainingError", "train", "parameter_digest"]
 
@@ -121,9 +123,8 @@ class TrainConfig:
     progress: bool = True
 
     def validate(self) -> None:
-        from ..objects.categories import get_category
-
-        get_category(self.category)
+        if not isinstance(self.category, str) or not self.category:
+            raise InputError("give the category's name")
         if (self.steps is None) == (self.epochs is None):
             raise InputError("give exactly one of steps and epochs")
         if self.steps is not None and int(self.steps) <= 0 or self.epochs is not None and float(self.epochs) <= 0:
@@ -201,21 +202,24 @@ _CACHE_BYTES = 6 << 30  # training data up to this size is kept in memory once r
 
 
 def _load_samples(tc: TrainConfig):
-    """The training samples and a description of where they come from."""
+    """The training samples, a description of where they come from, and the data's declared category
+    structure (``meta.json["structure"]``, see :func:`ucope.priors.structure_from_dict`)."""
     if tc.on_the_fly:
         from ..data.stream import GeneratedSamples
 
         s = GeneratedSamples(tc.category, "train", tc.data_seed, tc.epoch_size)
         return s, {"kind": "on-the-fly", "split": "train", "seed": tc.data_seed, "epoch_size": tc.epoch_size,
-                   "generator_version": GENERATOR_VERSION}
+                   "generator_version": GENERATOR_VERSION}, s.meta["structure"]
     from ..data.dataset import load_dataset
 
     ds = load_dataset(tc.data, cache_bytes=_CACHE_BYTES)
     if ds.category != tc.category:
         raise InputError(f"data set {tc.data} holds {ds.category!r} samples, the training is for {tc.category!r}")
     meta = ds.meta
+    if "structure" not in meta:
+        raise DataError(f"{tc.data}/meta.json declares no category structure (made by an older ucope): generate the data again")
     return ds, {"kind": "shards", "path": str(Path(tc.data).resolve()), "split": meta.get("split"), "seed": meta.get("seed"),
-                "num": len(ds), "generator_version": meta.get("generator_version"), "settings": meta.get("settings")}
+                "num": len(ds), "generator_version": meta.get("generator_version"), "settings": meta.get("settings")}, meta["structure"]
 
 
 def _load_val(tc: TrainConfig):
@@ -346,10 +350,10 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
         out.mkdir(parents=True, exist_ok=True)
     dd.barrier()
 
-    samples, data_desc = _load_samples(tc)
+    samples, data_desc, structure = _load_samples(tc)
     ckpt = load_checkpoint(out) if tc.resume else None
     if ckpt is not None:
-        cfg = ModelConfig.from_dict(ckpt["config"])
+        cfg = ckpt["model_config"]
         if cfg.category != tc.category:
             raise TrainingError(f"the checkpoint in {out} is a {cfg.category!r} model, not {tc.category!r}")
         init = None
@@ -357,8 +361,9 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
         cfg, init = _init_config(tc)
     else:
         init = None
-        stats = compute_category_stats(samples, max_samples=300 if tc.on_the_fly else 2000)
-        cfg = ModelConfig.for_category(tc.category, stats, size=tc.model_size, **tc.model_overrides)
+        priors = measure_priors(samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
+                                template_samples=100 if tc.on_the_fly else 400)
+        cfg = ModelConfig.default(priors, size=tc.model_size, **tc.model_overrides)
     torch.manual_seed(tc.seed)
     model = build_model(cfg)
     if init is not None:
@@ -478,9 +483,8 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
             "category": cfg.category,
             "num_parts": cfg.num_parts,
             "part_names": list(cfg.part_names),
-            "part_symmetry": list(cfg.part_symmetry),
-            "joints": [{"type": ("revolute", "prismatic")[t], "parent": p, "child": c}
-                       for t, p, c in zip(cfg.joint_types, cfg.joint_parents, cfg.joint_children)],
+            "part_symmetry": [p.symmetry for p in cfg.priors.parts],
+            "joints": [{"type": j.type.label, "parent": j.parent, "child": j.child} for j in cfg.priors.joints],
             "model_size": tc.model_size,
             "head": cfg.head,
             "ucope_version": __version__,

@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from ..errors import InputError
+from ..vocab import JOINT_TYPES, SYMMETRIES, JointType
 from ..geometry.transforms import (
     apply_transform,
     axis_angle_transform,
@@ -37,13 +38,7 @@ from ..geometry.transforms import (
     translation_transform,
 )
 
-__all__ = ["JOINT_TYPES", "SYMMETRIES", "Part", "Joint", "ArticulatedObject", "make_part", "build_object"]
-
-JOINT_TYPES = ("revolute", "prismatic", "fixed")
-"""Joint types; the integer code of a type (as stored in data sets) is its index here."""
-
-SYMMETRIES = ("none", "y")
-"""Part symmetry tags: ``"none"``, or ``"y"`` = continuous symmetry about the part's y axis."""
+__all__ = ["Part", "Joint", "ArticulatedObject", "make_part", "build_object"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,8 +117,8 @@ class Joint:
 
     @property
     def type_code(self) -> int:
-        """Integer code of the joint type (index in :data:`JOINT_TYPES`)."""
-        return JOINT_TYPES.index(self.type)
+        """Integer code of the joint type (:class:`ucope.vocab.JointType`), as stored in data sets."""
+        return int(JointType.parse(self.type))
 
     def motion(self, state: float) -> np.ndarray:
         """``(4, 4)`` motion of the child in the parent frame at ``state`` (relative to state 0)."""
@@ -215,7 +210,9 @@ class ArticulatedObject:
         """``(K-1, 2)`` joint limits (lower, upper)."""
         return np.array([j.limits for j in self.joints], dtype=np.float64).reshape(-1, 2)
 
-    def _check_state(self, state: Sequence[float] | np.ndarray | None, tol: float = 1e-6) -> np.ndarray:
+    def check_state(self, state: Sequence[float] | np.ndarray | None, tol: float = 1e-6) -> np.ndarray:
+        """``state`` as a checked ``(K-1,)`` float64 array (``None``: the rest state); raises
+        :class:`InputError` naming a joint whose state is outside its limits."""
         if state is None:
             return self.rest_state
         q = np.asarray(state, dtype=np.float64).reshape(-1)
@@ -236,7 +233,7 @@ class ArticulatedObject:
         Args:
             state: ``(K-1,)`` joint states (radians / metres), ``None`` for the rest state.
         """
-        q = self._check_state(state)
+        q = self.check_state(state)
         out = np.empty((self.num_parts, 4, 4))
         out[0] = np.eye(4)
         for i in self._fk_order:
@@ -272,6 +269,19 @@ class ArticulatedObject:
             labels.append(np.full(len(p.mesh.faces), k, dtype=np.int64))
             offset += len(p.mesh.vertices)
         return np.concatenate(verts), np.concatenate(faces), np.concatenate(labels)
+
+    def structure(self) -> dict:
+        """The declared structure (JSON-safe): ``parts`` ``[{name, symmetry}]`` and ``joints``
+        ``[{type, parent, child, axis_in_parent, limits}]``, the form of a data set's ``meta.json`` that
+        :func:`ucope.priors.structure_from_dict` reads. Fixed joints cannot be declared (merge such parts)."""
+        for j in self.joints:
+            if JointType.parse(j.type) == JointType.FIXED:
+                raise InputError(f"{self.instance_id}: joint {j.parent}->{j.child} is fixed; a category's joints are revolute or prismatic")
+        return {
+            "parts": [{"name": p.name, "symmetry": p.symmetry} for p in self.parts],
+            "joints": [{"type": j.type, "parent": int(j.parent), "child": int(j.child), "axis_in_parent": [float(x) for x in j.axis],
+                        "limits": [float(j.limits[0]), float(j.limits[1])]} for j in self.joints],
+        }
 
     def bounds(self, state: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """``(2, 3)`` axis-aligned bounds of the whole object in the object frame at ``state``."""

@@ -41,11 +41,6 @@ class PinholeCamera:
         """``(3, 3)`` intrinsic matrix."""
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
-    @classmethod
-    def from_K(cls, K: np.ndarray, width: int, height: int) -> "PinholeCamera":
-        K = np.asarray(K, dtype=np.float64).reshape(3, 3)
-        return cls(float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]), int(width), int(height))
-
     def to_dict(self) -> dict:
         return asdict(self)
 

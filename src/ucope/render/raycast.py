@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from ..geometry.transforms import apply_transform
 from .camera import PinholeCamera
 
 __all__ = ["raycast_depth", "BACKGROUND_LABEL", "CLUTTER_LABEL"]
@@ -94,8 +93,3 @@ def raycast_depth(
     depth[r, c] = z[closer]
     labels[r, c] = np.asarray(face_labels)[tri_idx[closer]].astype(np.uint8)
     return depth, labels
-
-
-def transform_soup(cam_from_world: np.ndarray, vertices_world: np.ndarray) -> np.ndarray:
-    """Vertices of a soup moved from the world frame into the camera frame."""
-    return apply_transform(cam_from_world, vertices_world)

@@ -139,7 +139,7 @@ def render_view(
 ) -> RenderedView:
     """Sample (unless given) and render one view of ``obj``; all randomness comes from ``rng``."""
     s_state, s_pose = sample_view(obj, cfg, rng, spec)
-    state = s_state if state is None else obj._check_state(state)
+    state = s_state if state is None else obj.check_state(state)
     cam_from_object = s_pose if cam_from_object is None else np.asarray(cam_from_object, np.float64)
 
     verts, faces, labels = obj.posed_geometry(state)

@@ -1,34 +1,40 @@
-"""Voting layer: 9D part poses and joints from the network's per-pair and per-point outputs.
+"""Voting: 9D part poses and joints from the network's per-pair and per-point outputs.
 
-Pure geometry (no network code, no Python loops over pairs or points): the stages over every pair
-(decoding, grid votes, inlier tests) in float32 torch on the device of the inputs, the iterative
-refinements on their subsets of at most ~1000 pairs in float64 numpy (dozens of small operations per
-iteration, where numpy's per-call cost is a fraction of torch's). See docs/voting.md for the algorithms, defaults and measured accuracy.
+Pure maths: it needs a model's stored :class:`ucope.priors.CategoryPriors` and the outputs named in
+:mod:`ucope.vocab` (``VOTE_HEADS``, ``AXIS_HEADS``, the joint heads), never the network code nor the
+generators. No Python loops over pairs or points: the stages over every pair (decoding, grid votes,
+inlier tests) run in float32 torch on the device of the inputs, the iterative refinements on their
+subsets of at most ~1000 pairs in float64 numpy (dozens of small operations per iteration, where
+numpy's per-call cost is a fraction of torch's). See docs/voting.md for the algorithms, defaults and
+measured accuracy.
 
 * :func:`decode_bins`: binned logits -> values (expectation around the argmax).
-* :func:`vote_centre`: centre from the pairs' ``(mu, nu)`` circles (grid vote + Gauss-Newton).
-* :func:`vote_axis`, :func:`choose_axis_sign`: an axis from the pairs' directed cones.
+* :func:`vote_centre` (:class:`CentreOptions`): centre from the pairs' ``(mu, nu)`` circles.
+* :func:`vote_axis` (:class:`AxisOptions`), :func:`choose_axis_sign`: an axis from the pairs' cones.
 * :func:`rotation_from_axes`, :func:`refine_rotation`: rotation from voted axes.
-* :func:`vote_part`, :func:`vote_parts`: one part / every part of an object.
+* :func:`vote_part`, :func:`vote_parts` (:class:`VotingOptions`): one part / every part of an object.
 * :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
-* :func:`vote_object`: parts + joints + joint states, optionally :func:`kinematic_refine`.
+* :func:`resolve_joint_flips`, :func:`resolve_shape_flips` (:class:`ShapeIndex`), :func:`kinematic_refine`.
+* :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 """
 
 from __future__ import annotations
 
-from .axis import choose_axis_sign, fibonacci_sphere, vote_axis
+from .axis import AxisOptions, choose_axis_sign, fibonacci_sphere, vote_axis
 from .bins import decode_bins
-from .centre import circle_distance, vote_centre
-from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
-from .part import PartVote, VotingOptions, vote_part, vote_parts
+from .centre import CentreOptions, circle_distance, vote_centre
 from .joints import JointVote, joint_from_points, vote_joints
-from .kinematic import kinematic_refine, resolve_joint_flips, resolve_shape_flips
-from .object import vote_object
+from .kinematic import ShapeIndex, kinematic_refine, resolve_joint_flips, resolve_shape_flips
+from .object import regressed_object, vote_object
+from .part import PartVote, VotingOptions, vote_part, vote_parts
+from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
 
 __all__ = [
     "decode_bins",
+    "CentreOptions",
     "vote_centre",
     "circle_distance",
+    "AxisOptions",
     "fibonacci_sphere",
     "vote_axis",
     "choose_axis_sign",
@@ -42,8 +48,10 @@ __all__ = [
     "JointVote",
     "joint_from_points",
     "vote_joints",
+    "ShapeIndex",
     "kinematic_refine",
     "resolve_joint_flips",
     "resolve_shape_flips",
     "vote_object",
+    "regressed_object",
 ]

@@ -32,17 +32,58 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from ..errors import InputError
-from ._checks import strided, tensor
-from .centre import _cross3, _dot, _median, _np64, circle_basis, perpendicular_basis
+from .arrays import cross3, dot3, median, np64, strided, tensor
+from .centre import circle_basis, perpendicular_basis
 
-__all__ = ["fibonacci_sphere", "vote_axis", "choose_axis_sign", "axis_residual", "cube_cell_centre"]
+__all__ = ["AxisOptions", "fibonacci_sphere", "vote_axis", "axis_from_cones", "coarse_axes", "choose_axis_sign", "signed_axis",
+           "axis_residual", "cube_cell", "cube_cell_centre", "AXIS_METHODS"]
 
 _CHUNK = 1 << 20  # elements of one (D, S) score chunk
+
+AXIS_METHODS = ("cubemap", "fibonacci")
+"""Coarse stages of :func:`vote_axis`."""
+
+
+@dataclass(frozen=True)
+class AxisOptions:
+    """Settings of an axis vote (defaults measured in tests/voting and benchmarks/bench_voting.py).
+
+    Attributes:
+        method: coarse stage, ``"cubemap"`` (cone candidates binned on a cube map) or ``"fibonacci"``
+            (every pair scored against every direction of a Fibonacci sphere).
+        num_angles, grid: cubemap: candidates per cone, cells per cube face side (32: about 2.8 degrees).
+        num_directions: fibonacci: directions of the sphere.
+        tol_deg: the inlier tolerance of the result, the initial Tukey scale of the refinement and the
+            fibonacci score tolerance (degrees; 5 = the angle bin width for 36 bins).
+        min_tol_deg: smallest Tukey scale of the refinement (degrees).
+        refine_iters: Gauss-Newton iterations (0: the coarse direction).
+        max_coarse_pairs: most pairs in the coarse vote; max_refine_pairs: most pairs in the
+            refinement (evenly strided subsets of the voting pairs; the inlier test uses all).
+    """
+
+    method: str = "cubemap"
+    num_angles: int = 24
+    grid: int = 32
+    num_directions: int = 4000
+    tol_deg: float = 5.0
+    min_tol_deg: float = 0.2
+    refine_iters: int = 6
+    max_coarse_pairs: int = 1024
+    max_refine_pairs: int = 4096
+
+    def __post_init__(self) -> None:
+        if self.method not in AXIS_METHODS:
+            raise InputError(f"method must be one of {AXIS_METHODS}, got {self.method!r}")
+        if not (self.tol_deg > 0 and self.min_tol_deg > 0):
+            raise InputError("tol_deg and min_tol_deg must be positive")
+        if min(int(self.num_angles), int(self.grid), int(self.num_directions), int(self.max_coarse_pairs), int(self.max_refine_pairs)) < 1:
+            raise InputError("num_angles, grid, num_directions, max_coarse_pairs and max_refine_pairs must be positive")
 
 
 @functools.lru_cache(maxsize=8)
@@ -76,12 +117,12 @@ def _tangent_basis(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal ``b1, b2`` spanning the plane normal to unit ``u`` ``(3,)`` (float64 numpy)."""
     ref = np.zeros(3)
     ref[int(np.abs(u).argmin())] = 1.0
-    b1 = _cross3(u, ref)
+    b1 = cross3(u, ref)
     b1 /= math.sqrt(float(b1 @ b1))
-    return b1, _cross3(u, b1)
+    return b1, cross3(u, b1)
 
 
-def _cube_cell(u: torch.Tensor, G: int) -> torch.Tensor:
+def cube_cell(u: torch.Tensor, G: int) -> torch.Tensor:
     """Cell index in ``[0, 6 G^2)`` of unit directions ``u`` ``(3, ...)`` on an equi-angular cube map
     (``G x G`` cells per face, cell side ``90 / G`` degrees at the face centre). Face ``2 m + neg`` has
     major axis ``m`` and sign ``neg``; its minor axes are (y, z) for x, (x, z) for y, (x, y) for z."""
@@ -102,7 +143,7 @@ def _cube_cell(u: torch.Tensor, G: int) -> torch.Tensor:
 
 
 def cube_cell_centre(idx: int, G: int, device=None, dtype=torch.float32) -> torch.Tensor:
-    """Unit direction ``(3,)`` at the centre of cube-map cell ``idx`` (inverse of :func:`_cube_cell`)."""
+    """Unit direction ``(3,)`` at the centre of cube-map cell ``idx`` (inverse of :func:`cube_cell`)."""
     face, rem = divmod(int(idx), G * G)
     cs, ct = divmod(rem, G)
     major, neg = divmod(face, 2)
@@ -117,8 +158,8 @@ def cube_cell_centre(idx: int, G: int, device=None, dtype=torch.float32) -> torc
     return torch.tensor([v[0] / n, v[1] / n, v[2] / n], device=device, dtype=dtype)
 
 
-def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angles: int, grid: int) -> torch.Tensor:
-    """Peak of the cones' candidates binned on a cube map. ``e`` ``(3, S)``, ``angle`` ``(S,)`` (or
+def coarse_axes(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angles: int, grid: int) -> torch.Tensor:
+    """The coarse cube-map vote of one or several axes (inputs unchecked). Peak of the cones' candidates binned on a cube map. ``e`` ``(3, S)``, ``angle`` ``(S,)`` (or
     ``(n, S)``: ``n`` axes voted by the same pairs at once, e.g. up and right), ``w`` ``(S,)``.
     Returns ``(3,)`` (or ``(n, 3)``).
 
@@ -137,7 +178,7 @@ def _coarse_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angl
     cell = (math.pi / 2) / grid
     cells = 6 * grid * grid
     cw = w * torch.clamp(sa * (2.0 * math.pi / (num_angles * cell)), min=1.0 / num_angles)  # (n, S)
-    idx = _cube_cell(cand, grid) + (torch.arange(n, device=e.device) * cells).view(n, 1, 1)
+    idx = cube_cell(cand, grid) + (torch.arange(n, device=e.device) * cells).view(n, 1, 1)
     votes = torch.bincount(idx.reshape(-1), weights=cw.unsqueeze(-1).expand(-1, -1, num_angles).reshape(-1), minlength=n * cells)
     peaks = votes.view(n, cells).argmax(1).tolist()
     out = torch.stack([cube_cell_centre(k, grid, device=e.device, dtype=e.dtype) for k in peaks])  # a handful
@@ -190,52 +231,30 @@ def _refine_axis(u: np.ndarray, e: np.ndarray, angle: np.ndarray, w: np.ndarray,
             break
         u = u + d[0] * b1 + d[1] * b2
         u = u / np.linalg.norm(u)
-        new_tol = min(tol0, max(tol_min, 3.0 * _median(r_ang[inl])))
+        new_tol = min(tol0, max(tol_min, 3.0 * median(r_ang[inl])))
         if new_tol == tol and float(np.linalg.norm(d)) < 1e-3 * tol_min:  # converged
             break
         tol = new_tol
     return u
 
 
-def vote_axis(
-    e,
-    angle,
-    weights=None,
-    *,
-    method: str = "cubemap",
-    num_angles: int = 24,
-    grid: int = 32,
-    num_directions: int = 4000,
-    tol_deg: float = 5.0,
-    min_tol_deg: float = 0.2,
-    refine_iters: int = 6,
-    max_coarse_pairs: int = 1024,
-    max_refine_pairs: int = 4096,
-) -> tuple[torch.Tensor, torch.Tensor]:
+def vote_axis(e, angle, weights=None, *, options: AxisOptions | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Vote a (directed) unit axis ``u`` with ``e_i . u = cos(angle_i)`` (see the module docstring).
 
     Args:
         e: ``(M, 3)`` unit pair directions ``(a - b) / |a - b|``.
         angle: ``(M,)`` decoded angles between ``e`` and the axis, radians in ``[0, pi]``.
         weights: ``(M,)`` non-negative pair weights (default 1); weight-0 pairs do not vote.
-        method: coarse stage, ``"cubemap"`` (cone candidates binned on a cube map; default) or
-            ``"fibonacci"`` (every pair scored against every direction of a Fibonacci sphere).
-        num_angles, grid: cubemap: candidates per cone, cells per cube face side.
-        num_directions: fibonacci: directions of the sphere.
-        tol_deg: the inlier tolerance of the result, the initial Tukey scale of the refinement and the
-            fibonacci score tolerance (degrees; default 5, the angle bin width for 36 bins).
-        min_tol_deg: smallest Tukey scale of the refinement (degrees).
-        refine_iters: Gauss-Newton iterations (0: return the coarse direction).
-        max_coarse_pairs: most pairs in the coarse vote; max_refine_pairs: most pairs in the
-            refinement (evenly strided subsets of the voting pairs; the inlier test uses all).
+        options: :class:`AxisOptions` (default: its defaults).
 
     Returns:
         ``u`` ``(3,)`` unit axis and ``inliers`` ``(M,)`` bool (weight > 0 and directed residual
-        ``< tol_deg``), on the device of ``e``.
+        ``< options.tol_deg``), on the device of ``e``.
 
     Raises:
         InputError: mismatched shapes, NaN / inf, negative weights, or no pair with positive weight.
     """
+    opt = options or AxisOptions()
     e = tensor(e, "e", (None, 3))
     M = e.shape[0]
     dev = e.device
@@ -245,36 +264,31 @@ def vote_axis(
         raise InputError("weights must be non-negative")
     if M == 0 or not bool((w > 0).any()):
         raise InputError("vote_axis needs at least one pair with a positive weight")
-    if method not in ("cubemap", "fibonacci"):
-        raise InputError(f"method must be 'cubemap' or 'fibonacci', got {method!r}")
     et = e.T.contiguous()
-    et = et / torch.sqrt(_dot(et, et)).clamp_min(1e-12)
-    return _vote_axis(
-        et, angle, w, method, int(num_angles), int(grid), int(num_directions), float(tol_deg), float(min_tol_deg),
-        int(refine_iters), int(max_coarse_pairs), int(max_refine_pairs),
-    )
+    et = et / torch.sqrt(dot3(et, et)).clamp_min(1e-12)
+    return axis_from_cones(et, angle, w, opt)
 
 
-def _vote_axis(et, angle, w, method, num_angles, grid, num_directions, tol_deg, min_tol_deg, refine_iters, max_coarse_pairs, max_refine_pairs,
-               coarse=None, inliers: bool = True):
-    """:func:`vote_axis` on checked coordinate-major unit directions ``et`` ``(3, M)``; ``coarse``: the
-    coarse direction if already voted (:func:`_coarse_axis` of several axes at once); ``inliers=False``
-    returns ``None`` for them."""
+def axis_from_cones(et: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, options: AxisOptions, coarse: torch.Tensor | None = None,
+                    with_inliers: bool = True) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """The work of :func:`vote_axis` on inputs it has checked: coordinate-major unit directions ``et``
+    ``(3, M)``, ``angle, w`` ``(M,)``. ``coarse``: the coarse direction ``(3,)`` if already voted
+    (:func:`coarse_axes` of several axes at once); ``with_inliers=False`` returns ``None`` for them."""
     dev = et.device
-    tol = math.radians(tol_deg)
-    tol_min = min(math.radians(min_tol_deg), tol)
+    tol = math.radians(options.tol_deg)
+    tol_min = min(math.radians(options.min_tol_deg), tol)
     sel = torch.nonzero(w > 0).squeeze(-1)
-    cs = strided(sel, max_coarse_pairs)
+    cs = strided(sel, options.max_coarse_pairs)
     if coarse is not None:
         u = coarse
-    elif method == "cubemap":
-        u = _coarse_axis(et[:, cs], angle[cs], w[cs], num_angles, grid)
+    elif options.method == "cubemap":
+        u = coarse_axes(et[:, cs], angle[cs], w[cs], int(options.num_angles), int(options.grid))
     else:
-        u = _sphere_axis(et[:, cs], angle[cs], w[cs], fibonacci_sphere(num_directions, device=dev, dtype=et.dtype), tol)
-    rs = strided(sel, max_refine_pairs)
-    u64 = _refine_axis(_np64(u), _np64(et[:, rs]), _np64(angle[rs]), _np64(w[rs]), tol, tol_min, refine_iters, tol)
+        u = _sphere_axis(et[:, cs], angle[cs], w[cs], fibonacci_sphere(options.num_directions, device=dev, dtype=et.dtype), tol)
+    rs = strided(sel, options.max_refine_pairs)
+    u64 = _refine_axis(np64(u), np64(et[:, rs]), np64(angle[rs]), np64(w[rs]), tol, tol_min, int(options.refine_iters), tol)
     u = torch.as_tensor(u64, dtype=et.dtype, device=dev)
-    if not inliers:
+    if not with_inliers:
         return u, None
     return u, (axis_residual(u, et, angle) < tol) & (w > 0)
 
@@ -318,12 +332,13 @@ def choose_axis_sign(
     n = tensor(normals, "normals", (M, 3), device=dev)
     lg = tensor(sign_logits, "sign_logits", (M,), device=dev)
     inl = torch.ones(M, dtype=torch.bool, device=dev) if inliers is None else tensor(inliers, "inliers", (M,), dtype=torch.bool, device=dev)
-    return _choose_sign(u, e.T.contiguous(), angle, n.T.contiguous(), lg, inl, float(tol_deg), float(margin), use_sign_bits)
+    return signed_axis(u, e.T.contiguous(), angle, n.T.contiguous(), lg, inl, float(tol_deg), float(margin), use_sign_bits)
 
 
-def _choose_sign(u, et, angle, nt, lg, inl, tol_deg: float, margin: float, use_sign_bits: bool) -> tuple[torch.Tensor, int]:
-    """:func:`choose_axis_sign` on checked coordinate-major ``et, nt`` ``(3, M)``."""
-    nt = torch.where(_dot(nt, et) < 0, -nt, nt)
+def signed_axis(u: torch.Tensor, et: torch.Tensor, angle: torch.Tensor, nt: torch.Tensor, lg: torch.Tensor, inl: torch.Tensor, tol_deg: float,
+                margin: float, use_sign_bits: bool) -> tuple[torch.Tensor, int]:
+    """The work of :func:`choose_axis_sign` on inputs it has checked: coordinate-major ``et, nt`` ``(3, M)``."""
+    nt = torch.where(dot3(nt, et) < 0, -nt, nt)
     x = (u @ et).clamp(-1.0, 1.0)
     tol = math.radians(tol_deg)
     a_plus = torch.arccos(x)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from ..errors import InputError
-from ._checks import as_tensor, check_finite
+from .arrays import as_tensor, check_finite
 
 __all__ = ["decode_bins"]
 

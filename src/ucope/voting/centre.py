@@ -27,7 +27,7 @@ finds the point most circles pass through:
    ``viewpoint`` (the camera) is kept, since a visible face has its box behind it. Otherwise the
    better-supported one wins.
 
-Defaults (relative to the vote range ``V`` of the part, :class:`ucope.model.config.CategoryStats`):
+Defaults (:class:`CentreOptions`, relative to the vote range ``V`` of the part, :class:`ucope.priors.PartPrior`):
 ``cell_m = V / 20`` (the ``mu`` bins are ``V / 16`` wide, so a cell is a little under a bin),
 ``num_angles = 36`` candidates per circle (CPPF: up to 72), inliers within ``2`` cells (CPPF: 3 cells
 of its voxel size). Measured on exact synthetic votes (tests/voting, docs/voting.md) the refined centre
@@ -42,14 +42,16 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from ..errors import InputError
-from ._checks import strided, tensor
+from .arrays import cross_rows, dot3, median, np64, strided, tensor
 
-__all__ = ["vote_centre", "circle_candidates", "circle_distance", "pair_frames", "perpendicular_basis", "DEFAULT_CELL_FRACTION"]
+__all__ = ["CentreOptions", "vote_centre", "centre_from_circles", "circle_candidates", "circle_distance", "pair_frames",
+           "perpendicular_basis", "DEFAULT_CELL_FRACTION"]
 
 DEFAULT_CELL_FRACTION = 1.0 / 20.0
 """Default grid cell as a fraction of the part's vote range ``V``."""
@@ -57,15 +59,41 @@ DEFAULT_CELL_FRACTION = 1.0 / 20.0
 _MAX_EXTENT_SAMPLES = 4096
 
 
-def _dot(x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
-    """Row-wise dot of ``(3, M)`` coordinate-major arrays -> ``(M,)`` (three fused multiply-adds: on CPU,
-    torch reductions over a trailing axis of size 3 are several times slower)."""
-    return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+@dataclass(frozen=True)
+class CentreOptions:
+    """Settings of the centre vote (defaults measured in tests/voting and benchmarks/bench_voting.py).
 
+    Attributes:
+        cell_fraction: grid cell side as a fraction of the part's vote range ``V``.
+        num_angles: candidates per circle ``T``.
+        inlier_tol_cells: a pair is an inlier if its circle passes within this many cells of the
+            centre (also the initial Tukey scale of the refinement).
+        min_tol_cells: the smallest Tukey scale of the refinement, in cells.
+        refine_iters: Gauss-Newton iterations (0: the peak cell centre).
+        max_cells: most cells per grid axis (the cell grows if the extent needs more).
+        max_grid_pairs: most pairs (an evenly strided subset of the voting pairs) casting grid votes;
+            max_refine_pairs: most pairs the refinement runs on. The inlier test uses every pair.
+        mirror_ratio: the mirror image of the centre (coplanar pairs, step 3) counts as "as good"
+            when its inlier weight is at least this fraction of the other's.
+    """
 
-def _cross(x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
-    """Cross product of ``(3, M)`` coordinate-major arrays."""
-    return torch.stack([x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]])
+    cell_fraction: float = DEFAULT_CELL_FRACTION
+    num_angles: int = 36
+    inlier_tol_cells: float = 2.0
+    min_tol_cells: float = 0.1
+    refine_iters: int = 8
+    max_cells: int = 96
+    max_grid_pairs: int = 4096
+    max_refine_pairs: int = 4096
+    mirror_ratio: float = 0.8
+
+    def __post_init__(self) -> None:
+        if int(self.num_angles) < 3:
+            raise InputError(f"num_angles must be >= 3, got {self.num_angles}")
+        if not (self.cell_fraction > 0 and self.inlier_tol_cells > 0 and self.min_tol_cells > 0):
+            raise InputError("cell_fraction, inlier_tol_cells and min_tol_cells must be positive")
+        if min(int(self.max_cells), int(self.max_grid_pairs), int(self.max_refine_pairs)) < 1 or int(self.refine_iters) < 0:
+            raise InputError("max_cells, max_grid_pairs and max_refine_pairs must be positive, refine_iters >= 0")
 
 
 def pair_frames(a: torch.Tensor, b: torch.Tensor, mu: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -76,7 +104,7 @@ def pair_frames(a: torch.Tensor, b: torch.Tensor, mu: torch.Tensor) -> tuple[tor
     ``(M,)`` -> ``e, f, p, q`` ``(3, M)``, ``valid`` ``(M,)`` bool.
     """
     d = a - b
-    dist = torch.sqrt(_dot(d, d))
+    dist = torch.sqrt(dot3(d, d))
     valid = dist > 1e-9
     e = d / dist.clamp_min(1e-9)
     f = a - mu * e
@@ -91,8 +119,8 @@ def perpendicular_basis(e: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     use_y = e[0].abs() > 0.9
     zero = torch.zeros_like(e[0])
     p = torch.stack([torch.where(use_y, -e[2], zero), torch.where(use_y, zero, e[2]), torch.where(use_y, e[0], -e[1])])
-    p = p / torch.sqrt(_dot(p, p)).clamp_min(1e-12)
-    return p, _cross(e, p)
+    p = p / torch.sqrt(dot3(p, p)).clamp_min(1e-12)
+    return p, cross_rows(e, p)
 
 
 @functools.lru_cache(maxsize=16)
@@ -119,8 +147,8 @@ def circle_distance(c: torch.Tensor, f: torch.Tensor, e: torch.Tensor, nu: torch
     unit normal ``e`` ``(3, M)``, both coordinate-major, radius ``nu`` ``(M,)``):
     ``sqrt((|(c - f)_perp| - nu)^2 + ((c - f) . e)^2)``."""
     d = c.view(3, 1) - f
-    h = _dot(d, e)
-    rho = torch.sqrt((_dot(d, d) - h * h).clamp_min(0.0))
+    h = dot3(d, e)
+    rho = torch.sqrt((dot3(d, d) - h * h).clamp_min(0.0))
     return torch.sqrt((rho - nu).square() + h.square())
 
 
@@ -135,7 +163,7 @@ def _robust_extent(cand: torch.Tensor, lo_q: float = 0.01, hi_q: float = 0.99) -
     return lo, hi
 
 
-def _grid_peak(cand: torch.Tensor, w: torch.Tensor, cell: float, max_cells: int) -> torch.Tensor:
+def grid_peak(cand: torch.Tensor, w: torch.Tensor, cell: float, max_cells: int) -> torch.Tensor:
     """Centre ``(3,)`` of the heaviest cell of a grid over the candidates' robust extent.
 
     ``cand`` ``(3, M, T)`` candidates, ``w`` ``(M, T)`` their weights, ``cell`` metres.
@@ -166,26 +194,6 @@ def _grid_peak(cand: torch.Tensor, w: torch.Tensor, cell: float, max_cells: int)
     k = int(votes.argmax())
     idx = torch.tensor([k // (dy * dz), (k // dz) % dy, k % dz], device=cand.device, dtype=cand.dtype)
     return lo + (idx + 0.5) * cell
-
-
-def _np64(x) -> np.ndarray:
-    """A float64 numpy copy of a tensor (any device) or array: the iterative refinements run on it."""
-    if isinstance(x, torch.Tensor):
-        x = x.detach().cpu().numpy()
-    return np.asarray(x, dtype=np.float64)
-
-
-def _median(x: np.ndarray) -> float:
-    """``np.median`` of a non-empty 1D array, without its per-call overhead (one partition)."""
-    n = len(x)
-    k = n // 2
-    part = np.partition(x, k)
-    return float(part[k]) if n % 2 else 0.5 * float(part[:k].max() + part[k])
-
-
-def _cross3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Cross product of two 3-vectors (``np.cross`` costs tens of microseconds per call)."""
-    return np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
 
 
 def _refine_centre(c: np.ndarray, f: np.ndarray, e: np.ndarray, p: np.ndarray, nu: np.ndarray, w: np.ndarray,
@@ -221,7 +229,7 @@ def _refine_centre(c: np.ndarray, f: np.ndarray, e: np.ndarray, p: np.ndarray, n
         if not np.all(np.isfinite(step)):
             break
         c = c - step
-        new_tol = min(tol0, max(tol_min, 3.0 * _median(r[inl])))
+        new_tol = min(tol0, max(tol_min, 3.0 * median(r[inl])))
         if new_tol == tol and float(np.linalg.norm(step)) < 1e-3 * tol_min:  # converged
             break
         tol = new_tol
@@ -237,15 +245,8 @@ def vote_centre(
     *,
     cell_m: float | None = None,
     vote_range_m: float | None = None,
-    num_angles: int = 36,
-    inlier_tol_cells: float = 2.0,
-    min_tol_cells: float = 0.1,
-    refine_iters: int = 8,
-    max_cells: int = 96,
-    max_grid_pairs: int = 4096,
-    max_refine_pairs: int = 4096,
+    options: CentreOptions | None = None,
     viewpoint=(0.0, 0.0, 0.0),
-    mirror_ratio: float = 0.8,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Vote the part centre from point pairs (see the module docstring for the algorithm).
 
@@ -253,23 +254,13 @@ def vote_centre(
         a, b: ``(M, 3)`` pair points (metres, camera frame); ``e = (a - b) / |a - b|``.
         mu: ``(M,)`` signed ``(a - c) . e`` (metres); nu: ``(M,)`` circle radii (metres, >= 0).
         weights: ``(M,)`` non-negative pair weights (default 1); weight-0 pairs do not vote.
-        cell_m: grid cell side (metres). Default ``vote_range_m / 20``; if neither is given, ``V`` is
-            taken as the largest ``|mu|``, ``nu``.
+        cell_m: grid cell side (metres). Default ``options.cell_fraction x vote_range_m``; if neither
+            is given, ``V`` is taken as the largest ``|mu|``, ``nu``.
         vote_range_m: the part's vote range ``V`` (sets the default cell).
-        num_angles: candidates per circle ``T``.
-        inlier_tol_cells: a pair is an inlier if its circle passes within this many cells of the
-            centre (also the initial Tukey scale of the refinement).
-        min_tol_cells: the smallest Tukey scale of the refinement, in cells.
-        refine_iters: Gauss-Newton iterations (0: return the peak cell centre).
-        max_cells: most cells per grid axis (the grid cell grows if the extent needs more).
-        max_grid_pairs: at most this many pairs (an evenly strided subset of the voting pairs) cast
-            grid votes; max_refine_pairs: at most this many (evenly strided) are refined on. The
-            inlier test uses every pair.
+        options: :class:`CentreOptions` (default: its defaults).
         viewpoint: ``(3,)`` the camera centre in the frame of the points (the origin in the camera
             frame), used to resolve the mirror ambiguity of coplanar pairs (step 3); ``None`` keeps the
             refined grid peak.
-        mirror_ratio: the mirror image counts as "as good" when its inlier weight is at least this
-            fraction of the other's.
 
     Returns:
         ``centre`` ``(3,)`` metres and ``inliers`` ``(M,)`` bool (weight > 0 and circle distance
@@ -278,6 +269,7 @@ def vote_centre(
     Raises:
         InputError: on mismatched shapes, NaN / inf, negative weights or no pair with positive weight.
     """
+    opt = options or CentreOptions()
     a = tensor(a, "a", (None, 3))
     M = a.shape[0]
     dev = a.device
@@ -289,29 +281,24 @@ def vote_centre(
         raise InputError("weights must be non-negative")
     if M == 0:
         raise InputError("vote_centre needs at least one pair")
-    num_angles = int(num_angles)
-    if num_angles < 3:
-        raise InputError(f"num_angles must be >= 3, got {num_angles}")
     if cell_m is None:
         V = float(vote_range_m) if vote_range_m is not None else float(torch.maximum(mu.abs(), nu).max())
-        cell_m = max(V, 1e-6) * DEFAULT_CELL_FRACTION
+        cell_m = max(V, 1e-6) * opt.cell_fraction
     cell = float(cell_m)
     if not (math.isfinite(cell) and cell > 0):
         raise InputError(f"cell_m must be a positive number, got {cell_m}")
-    c, inliers, _ = _vote_centre(
-        a.T.contiguous(), b.T.contiguous(), mu, nu, w, cell, num_angles, float(inlier_tol_cells),
-        float(min_tol_cells), int(refine_iters), int(max_cells), int(max_grid_pairs), int(max_refine_pairs),
-        viewpoint, float(mirror_ratio),
-    )
+    c, inliers, _ = centre_from_circles(a.T.contiguous(), b.T.contiguous(), mu, nu, w, cell, opt, viewpoint)
     return c, inliers
 
 
-def _vote_centre(
-    at, bt, mu, nu, w, cell, num_angles, inlier_tol_cells, min_tol_cells, refine_iters, max_cells, max_grid_pairs,
-    max_refine_pairs, viewpoint=(0.0, 0.0, 0.0), mirror_ratio: float = 0.8,
-):
-    """:func:`vote_centre` on checked, coordinate-major ``at, bt`` ``(3, M)``; also returns ``e`` ``(3, M)``."""
+def centre_from_circles(at: torch.Tensor, bt: torch.Tensor, mu: torch.Tensor, nu: torch.Tensor, w: torch.Tensor, cell: float,
+                        options: CentreOptions, viewpoint=(0.0, 0.0, 0.0)) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The work of :func:`vote_centre` on inputs it has checked: coordinate-major pair points ``at, bt``
+    ``(3, M)``, ``mu, nu, w`` ``(M,)``, the grid cell ``cell`` (metres). Returns ``(centre (3,),
+    inliers (M,), e (3, M))`` with ``e`` the unit pair directions (the axis votes reuse them)."""
     dev = at.device
+    num_angles, refine_iters = int(options.num_angles), int(options.refine_iters)
+    inlier_tol_cells, min_tol_cells, mirror_ratio = options.inlier_tol_cells, options.min_tol_cells, options.mirror_ratio
     e, f, p, q, valid = pair_frames(at, bt, mu)
     w = w * valid.to(w.dtype)
     voting = torch.nonzero(w > 0).squeeze(-1)
@@ -319,18 +306,18 @@ def _vote_centre(
         raise InputError("vote_centre needs at least one pair with a positive weight and a, b distinct")
 
     # 1. Grid vote over (a subset of) the voting pairs.
-    sel = strided(voting, max_grid_pairs)
+    sel = strided(voting, options.max_grid_pairs)
     cand = circle_candidates(f[:, sel], p[:, sel], q[:, sel], nu[sel], num_angles)  # (3, S, T)
     cw = w[sel] * torch.clamp(nu[sel] * (2.0 * math.pi / (num_angles * cell)), min=1.0 / num_angles)
-    c = _grid_peak(cand, cw.unsqueeze(-1).expand(-1, num_angles), cell, max_cells)
+    c = grid_peak(cand, cw.unsqueeze(-1).expand(-1, num_angles), cell, int(options.max_cells))
     del cand
 
     # 2. Iteratively reweighted Gauss-Newton on the distances to the circles, on (a subset of) them.
     tol0 = inlier_tol_cells * cell
     tol_min = min(min_tol_cells * cell, tol0)
-    rs = strided(voting, max_refine_pairs)
-    fr, er, pr, nur, wr = (_np64(x) for x in (f[:, rs], e[:, rs], p[:, rs], nu[rs], w[rs]))
-    c64 = _refine_centre(_np64(c), fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
+    rs = strided(voting, options.max_refine_pairs)
+    fr, er, pr, nur, wr = (np64(x) for x in (f[:, rs], e[:, rs], p[:, rs], nu[rs], w[rs]))
+    c64 = _refine_centre(np64(c), fr, er, pr, nur, wr, tol0, tol_min, refine_iters, tol0)
     c = torch.as_tensor(c64, dtype=at.dtype, device=dev)
 
     # 3. Mirror ambiguity: if the pair points are (nearly) coplanar, every circle is symmetric about
@@ -338,7 +325,7 @@ def _vote_centre(
     # the one behind the surface as seen from the viewpoint (a visible face has the box behind it).
     near = None  # circles within tol0 of the returned centre, when already computed
     if viewpoint is not None and refine_iters > 0:
-        pts = _np64(at[:, rs])
+        pts = np64(at[:, rs])
         m = pts.mean(1)
         evals, evecs = np.linalg.eigh((pts - m[:, None]) @ (pts - m[:, None]).T)
         n = evecs[:, 0]

@@ -30,8 +30,9 @@ import numpy as np
 import torch
 
 from ..errors import InputError
-from ..model.config import ModelConfig
-from ._checks import tensor
+from ..priors import CategoryPriors
+from .arrays import tensor
+from .part import as_points
 
 __all__ = ["JointVote", "joint_from_points", "vote_joints"]
 
@@ -111,27 +112,27 @@ def joint_from_points(
     )
 
 
-def vote_joints(points, outputs: Mapping[str, Any], cfg: ModelConfig, awareness: bool = True, threshold: float = 0.5) -> dict[str, np.ndarray]:
+def vote_joints(points, outputs: Mapping[str, Any], priors: CategoryPriors, awareness: bool = True, threshold: float = 0.5) -> dict[str, np.ndarray]:
     """Every joint of one object (batch size 1) from the network's joint heads.
 
     Args:
         points: ``(N, 3)`` or ``(1, N, 3)`` the network's input cloud.
         outputs: :meth:`ucope.model.network.UCOPENet.forward` outputs with ``joint_heat``,
             ``joint_score`` ``(1, J, N)``, ``joint_offset``, ``joint_dir`` ``(1, J, N, 3)``.
-        cfg: the model configuration (``J = cfg.num_joints``).
+        priors: the category's :class:`ucope.priors.CategoryPriors` (``J = priors.num_joints``).
+        awareness: joint awareness on (paper) or off (ablation), see :func:`joint_from_points`.
+        threshold: probability threshold of the heat and joint-score heads.
 
     Returns:
         dict of numpy arrays: ``joint_pivot``, ``joint_axis`` ``(J, 3)``, ``joint_type`` ``(J,)``
-        (0 revolute, 1 prismatic), ``joint_num_points`` ``(J,)``, ``joint_fallback`` ``(J,)`` bool,
+        (:class:`ucope.vocab.JointType` codes), ``joint_num_points`` ``(J,)``, ``joint_fallback`` ``(J,)`` bool,
         ``joint_score`` ``(J,)``. Empty ``(0, ...)`` arrays for a rigid object.
     """
-    from .part import as_points
-
-    J = cfg.num_joints
+    J = priors.num_joints
     pts = as_points(points, "points")
     N = pts.shape[0]
     out = dict(
-        joint_pivot=np.zeros((J, 3)), joint_axis=np.zeros((J, 3)), joint_type=np.asarray(cfg.joint_types, dtype=np.int64),
+        joint_pivot=np.zeros((J, 3)), joint_axis=np.zeros((J, 3)), joint_type=np.array([int(j.type) for j in priors.joints], dtype=np.int64),
         joint_num_points=np.zeros(J, dtype=np.int64), joint_fallback=np.zeros(J, dtype=bool), joint_score=np.zeros(J),
     )
     if J == 0:

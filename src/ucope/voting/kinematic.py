@@ -3,7 +3,7 @@
 Voting estimates every part and joint independently, so a voted child rotation is in general not its
 parent's rotation turned about the joint axis, and the voted joint axis is not the parent's canonical
 axis. The articulation model (docs/conventions.md) says, for joint ``j`` with parent ``p``, child ``c``
-and canonical axis ``a_j`` in the parent frame (``ModelConfig.joint_axes_in_parent``; the rotation of
+and canonical axis ``a_j`` in the parent frame (``JointPrior.axis_in_parent``; the rotation of
 ``parent_from_child_zero`` is the identity):
 
     R_c = R_p Rot(a_j, q_j)   (revolute)        R_c = R_p   (prismatic)
@@ -25,80 +25,39 @@ keeps its voted point); prismatic states are recomputed from the refined poses
 (:func:`ucope.geometry.kinematics.joint_state_from_poses`).
 
 Off by default in the estimator: whether it helps depends on how good the joint heads are relative to
-the part votes, and is measured on real predictions elsewhere (docs/voting.md).
+the part votes; each model carries its measured default (docs/voting.md).
+
+The flip checks (:func:`resolve_joint_flips`, :func:`resolve_shape_flips`) read the joint limits, the
+part placements and the shape templates of the model's :class:`ucope.priors.CategoryPriors`.
 """
 
 from __future__ import annotations
 
-import functools
+from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from ..geometry.kinematics import joint_state_from_poses, revolute_angle
-from ..geometry.transforms import rotation_about_axis
-from ..model.config import ModelConfig
+from ..geometry.transforms import closest_rotation, rotation_about_axis
+from ..priors import CategoryPriors
+from ..vocab import JointType
 
-__all__ = ["kinematic_refine", "canonical_joint_axes", "resolve_joint_flips", "resolve_shape_flips"]
-
-
-def canonical_joint_axes(cfg: ModelConfig) -> np.ndarray:
-    """``(J, 3)`` unit joint axes in their parents' frames: ``cfg.joint_axes_in_parent``, or (older
-    configurations) those of the category's generator."""
-    if cfg.joint_axes_in_parent:
-        ax = np.asarray(cfg.joint_axes_in_parent, dtype=np.float64)
-    else:
-        from ..objects.categories import make_instance
-
-        ax = np.stack([j.axis for j in make_instance(cfg.category, "train", 0).joints]) if cfg.num_joints else np.zeros((0, 3))
-    if ax.shape != (cfg.num_joints, 3):
-        raise InputError(f"the configuration has {cfg.num_joints} joints but {len(ax)} canonical axes")
-    return ax / np.linalg.norm(ax, axis=-1, keepdims=True)
-
-
-@functools.lru_cache(maxsize=32)
-def _generator_limits(category: str) -> tuple[tuple[float, float], ...]:
-    from ..objects.categories import make_instance
-
-    return tuple((float(j.limits[0]), float(j.limits[1])) for j in make_instance(category, "train", 0).joints)
+__all__ = ["kinematic_refine", "resolve_joint_flips", "resolve_shape_flips", "ShapeIndex"]
 
 
 _HALF_TURNS = np.stack([np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])])
 
 
-@functools.lru_cache(maxsize=32)
-def _placement_templates(category: str) -> np.ndarray:
-    """``(J, 2, 3)``: for joint ``j``, the mean position of the child's box centre in the parent's frame
-    divided by the parent's box diagonal (``[j, 0]``), and of the parent's centre in the child's frame
-    divided by the child's box diagonal (``[j, 1]``), over 8 training instances of the category's generator at 5 joint states
-    spread over their limits."""
-    from ..objects.categories import make_instance
-
-    objs = [make_instance(category, "train", i) for i in range(8)]
-    J = len(objs[0].joints)
-    acc = np.zeros((J, 2, 3))
-    n = 0
-    for obj in objs:
-        lo, hi = obj.limits[:, 0], obj.limits[:, 1]
-        for f in np.linspace(0.0, 1.0, 5):
-            T = obj.object_from_part(lo + f * (hi - lo))
-            S = obj.size_m
-            for j, jt in enumerate(obj.joints):
-                p, c = jt.parent, jt.child
-                acc[j, 0] += T[p, :3, :3].T @ (T[c, :3, 3] - T[p, :3, 3]) / np.linalg.norm(S[p])
-                acc[j, 1] += T[c, :3, :3].T @ (T[p, :3, 3] - T[c, :3, 3]) / np.linalg.norm(S[c])
-            n += 1
-    return acc / n
-
-
-def _placement_flips(T: np.ndarray, size: np.ndarray, cfg: ModelConfig, flipped: np.ndarray) -> None:
+def _placement_flips(T: np.ndarray, size: np.ndarray, priors: CategoryPriors, flipped: np.ndarray) -> None:
     """Turn (in place) each part by the half turn about one of its axes that best puts its neighbours'
-    voted centres where the category has them (:func:`_placement_templates`), when that at least halves
-    the misfit and lowers it by 0.1 (box diagonals as units)."""
-    E = _placement_templates(cfg.category)
+    voted centres where the category has them (``JointPrior.child_in_parent`` / ``parent_in_child``),
+    when that at least halves the misfit and lowers it by 0.1 (box diagonals as units)."""
+    E = np.array([[jp.child_in_parent, jp.parent_in_child] for jp in priors.joints], dtype=np.float64).reshape(-1, 2, 3)
     for k in range(T.shape[0]):  # a handful of parts
-        links = [(j, 0, cfg.joint_children[j]) for j in range(cfg.num_joints) if cfg.joint_parents[j] == k]
-        links += [(j, 1, cfg.joint_parents[j]) for j in range(cfg.num_joints) if cfg.joint_children[j] == k]
+        links = [(j, 0, jp.child) for j, jp in enumerate(priors.joints) if jp.parent == k]
+        links += [(j, 1, jp.parent) for j, jp in enumerate(priors.joints) if jp.child == k]
         if not links:
             continue
         cost = np.zeros(len(_HALF_TURNS))
@@ -111,50 +70,49 @@ def _placement_flips(T: np.ndarray, size: np.ndarray, cfg: ModelConfig, flipped:
             flipped[k] = True
 
 
-@functools.lru_cache(maxsize=32)
-def _shape_templates(category: str, instances: int = 8, points: int = 512):
-    """Per part, a k-d tree of surface points of ``instances`` training instances of the category's
-    generator, in the part frame divided by the part's box size (so in the unit box)."""
-    import trimesh
-    from scipy.spatial import cKDTree
+@dataclass(frozen=True)
+class ShapeIndex:
+    """Per part, a k-d tree of the category's shape template (``CategoryPriors.shape_templates``:
+    surface points in the part's unit box), for :func:`resolve_shape_flips`; ``None`` for a part
+    without a template. Build it once per model (:meth:`from_priors`) and pass it to every call."""
 
-    from ..objects.categories import make_instance
+    trees: tuple
 
-    objs = [make_instance(category, "train", i) for i in range(instances)]
-    out = []
-    for k in range(objs[0].num_parts):
-        pts = [np.asarray(trimesh.sample.sample_surface(o.parts[k].mesh, points, seed=i)[0]) / o.parts[k].size_m
-               for i, o in enumerate(objs)]
-        out.append(cKDTree(np.concatenate(pts)))
-    return out
+    @classmethod
+    def from_priors(cls, priors: CategoryPriors) -> ShapeIndex:
+        templates = priors.shape_templates or (np.zeros((0, 3)),) * priors.num_parts
+        return cls(tuple(cKDTree(np.asarray(t, dtype=np.float64)) if len(t) else None for t in templates))
 
 
 def resolve_shape_flips(cam_from_part: np.ndarray, size_m: np.ndarray, points: np.ndarray, part_points: list,
-                        cfg: ModelConfig, margin: float = 0.75, clip: float = 0.25, max_points: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+                        priors: CategoryPriors, shapes: ShapeIndex | None = None, margin: float = 0.75, clip: float = 0.25,
+                        max_points: int = 1024) -> tuple[np.ndarray, np.ndarray]:
     """Turn back parts whose voted rotation is a half turn (about one of the part's axes) away from
     the pose their own points fit best (beyond the paper).
 
     A box is unchanged by those half turns, and the votes cannot always tell them apart (a camera's
     lens side from its screen side). Each part's points are brought into its voted frame and unit
-    box, turned by each half turn, and compared with the category's shape (surface points of training
-    instances, :func:`_shape_templates`): mean distance to the nearest template point, clipped at
+    box, turned by each half turn, and compared with the category's shape (its template in the priors,
+    :class:`ShapeIndex`): mean distance to the nearest template point, clipped at
     ``clip`` box sizes. The best half turn replaces the voted one when its misfit is below
-    ``margin`` times the voted one's. Parts symmetric about y are left alone. At most ``max_points``
+    ``margin`` times the voted one's. Parts symmetric about y, or without a template, are left alone. At most ``max_points``
     of a part's points (evenly strided) are compared, all half turns in one k-d tree query.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` voted poses; size_m: ``(K, 3)`` voted sizes.
         points: ``(N, 3)`` camera frame, metres; part_points: per part, indices into ``points``.
+        priors: the category's priors; shapes: their :class:`ShapeIndex` (built here when ``None``).
 
     Returns:
         ``(cam_from_part, turned)``: new poses (a copy) and ``(K,)`` bool, the parts turned.
     """
     T = np.array(cam_from_part, dtype=np.float64, copy=True)
     turned = np.zeros(len(T), dtype=bool)
-    trees = _shape_templates(cfg.category)
+    trees = (shapes or ShapeIndex.from_priors(priors)).trees
+    symmetric = priors.symmetric
     for k in range(len(T)):  # a handful of parts
         idx = np.asarray(part_points[k])
-        if cfg.part_symmetry[k] == "y" or len(idx) < 16:
+        if symmetric[k] or trees[k] is None or len(idx) < 16:
             continue
         if len(idx) > max_points:
             idx = idx[np.linspace(0, len(idx) - 1, max_points).astype(np.int64)]
@@ -169,13 +127,17 @@ def resolve_shape_flips(cam_from_part: np.ndarray, size_m: np.ndarray, points: n
     return T, turned
 
 
-def _range_distance(q: float, lo: float, hi: float) -> float:
-    """How far the angle ``q`` (any turn) lies outside ``[lo, hi]`` (0 inside), radians."""
+def _range_distance(q: float, lo: float | None, hi: float | None) -> float:
+    """How far the angle ``q`` (any turn) lies outside ``[lo, hi]`` (0 inside; an unlimited side never
+    excludes), radians."""
+    if lo is None or hi is None:
+        return 0.0
     q = (q - lo) % (2 * np.pi) + lo  # into [lo, lo + 2 pi)
     return 0.0 if q <= hi else min(q - hi, lo + 2 * np.pi - q)
 
 
-def resolve_joint_flips(cam_from_part: np.ndarray, joint_axis: np.ndarray, cfg: ModelConfig, size_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def resolve_joint_flips(cam_from_part: np.ndarray, joint_axis: np.ndarray, priors: CategoryPriors,
+                        size_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Undo half-turn flips of part rotations that contradict a revolute joint.
 
     A box is unchanged by a half turn about any of its own axes, so the votes of a plate-like part (a
@@ -193,34 +155,32 @@ def resolve_joint_flips(cam_from_part: np.ndarray, joint_axis: np.ndarray, cfg: 
 
     Before both, with ``size_m`` given, each part connected by any joint may take the half turn about one
     of its own axes that best puts its neighbours' voted centres where the category has them (in the
-    part's frame, in units of its box diagonal, averaged over the generator's instances and joint range): the
-    half turn of an eyeglasses front about its hinge axis puts the temples in front of it.
+    part's frame, in units of its box diagonal, averaged over the category's instances and joint
+    range): the half turn of an eyeglasses front about its hinge axis puts the temples in front of it.
 
-    The limits and placements are the category generator's. Joints are visited parent first; prismatic
-    joints are left alone by the two joint rules.
+    The limits and placements are the priors'. Joints are visited parent first; prismatic joints are
+    left alone by the two joint rules.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` voted poses; joint_axis: ``(J, 3)`` the joint heads' axes (camera).
-        cfg: the model configuration (joint tree and canonical axes).
+        priors: the category's priors (joint tree, canonical axes, limits, placements).
         size_m: ``(K, 3)`` the voted box sizes (for the placement check; ``None`` skips it).
 
     Returns:
         ``(cam_from_part, flipped)``: corrected poses (a copy) and ``(K,)`` bool, the parts turned.
     """
-    from ..geometry.kinematics import revolute_angle
-
     T = np.array(cam_from_part, dtype=np.float64)
     K = T.shape[0]
     flipped = np.zeros(K, dtype=bool)
-    axes = canonical_joint_axes(cfg)
-    limits = _generator_limits(cfg.category)
+    axes = priors.joint_axes
     basis = np.eye(3)
-    if size_m is not None and cfg.num_joints > 0:
-        _placement_flips(T, np.asarray(size_m, dtype=np.float64), cfg, flipped)
-    for j in range(cfg.num_joints):  # a handful of joints, parents before children in every category
-        if cfg.joint_types[j] != 0:
+    if size_m is not None and priors.num_joints > 0:
+        _placement_flips(T, np.asarray(size_m, dtype=np.float64), priors, flipped)
+    for j, jp in enumerate(priors.joints):  # a handful of joints, parents before children
+        if jp.type != JointType.REVOLUTE:
             continue
-        p, c, a = cfg.joint_parents[j], cfg.joint_children[j], axes[j]
+        p, c, a = jp.parent, jp.child, axes[j]
+        limits = jp.limits
         u = np.asarray(joint_axis[j], dtype=np.float64)
         if not np.all(np.isfinite(u)):
             u = np.zeros(3)
@@ -232,29 +192,23 @@ def resolve_joint_flips(cam_from_part: np.ndarray, joint_axis: np.ndarray, cfg: 
                 R = T[k, :3, :3] @ rotation_about_axis(b, np.pi)
                 rel = T[p, :3, :3].T @ R if k == c else R.T @ T[c, :3, :3]
                 q = float(revolute_angle(rel, a))
-                key = (round(_range_distance(q, *limits[j]), 6), float(np.linalg.norm(rel - rotation_about_axis(a, q))))
+                key = (round(_range_distance(q, *limits), 6), float(np.linalg.norm(rel - rotation_about_axis(a, q))))
                 if best is None or key < best[0]:
                     best = (key, R)
             T[k, :3, :3] = best[1]
             flipped[k] = True
         q = float(revolute_angle(T[p, :3, :3].T @ T[c, :3, :3], a))
-        if _range_distance(q + np.pi, *limits[j]) < _range_distance(q, *limits[j]):
+        if _range_distance(q + np.pi, *limits) < _range_distance(q, *limits):
             T[c, :3, :3] = T[c, :3, :3] @ rotation_about_axis(a, np.pi)
             flipped[c] = True
     return T, flipped
-
-
-def _procrustes(M: np.ndarray) -> np.ndarray:
-    U, _, Vt = np.linalg.svd(M)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0])
-    return U @ D @ Vt
 
 
 def kinematic_refine(
     poses,
     sizes,
     joints: dict,
-    cfg: ModelConfig,
+    priors: CategoryPriors,
     part_weights=None,
     axis_weight: float = 1.0,
     iters: int = 10,
@@ -265,7 +219,7 @@ def kinematic_refine(
         poses: ``(K, 4, 4)`` voted ``cam_from_part``; sizes: ``(K, 3)`` voted sizes.
         joints: dict with ``joint_axis`` ``(J, 3)`` (voted, camera frame) and optionally
             ``joint_pivot`` ``(J, 3)`` (kept).
-        cfg: the model configuration (tree, joint types, canonical axes, prismatic zero offsets).
+        priors: the category's priors (tree, joint types, canonical axes, prismatic zero offsets).
         part_weights: ``(K,)`` non-negative weights of the voted rotations (default 1 each).
         axis_weight: weight of each voted joint axis (same units as a part weight).
         iters: block coordinate descent sweeps.
@@ -275,7 +229,7 @@ def kinematic_refine(
         ``joint_axis`` ``(J, 3)`` (``R_parent a_j``), ``joint_pivot`` ``(J, 3)`` (as given, or NaN),
         ``joint_state`` ``(J,)`` (radians / metres).
     """
-    K, J = cfg.num_parts, cfg.num_joints
+    K, J = priors.num_parts, priors.num_joints
     T = np.asarray(poses, dtype=np.float64)
     S = np.asarray(sizes, dtype=np.float64)
     if T.shape != (K, 4, 4) or S.shape != (K, 3) or not (np.all(np.isfinite(T)) and np.all(np.isfinite(S))):
@@ -290,10 +244,10 @@ def kinematic_refine(
     out_T = T.copy()
     if J == 0:
         return dict(cam_from_part=out_T, joint_axis=np.zeros((0, 3)), joint_pivot=np.zeros((0, 3)), joint_state=np.zeros(0))
-    a = canonical_joint_axes(cfg)
-    parent = np.asarray(cfg.joint_parents)
-    child = np.asarray(cfg.joint_children)
-    jtype = np.asarray(cfg.joint_types)
+    a = priors.joint_axes
+    parent = np.array([jp.parent for jp in priors.joints])
+    child = np.array([jp.child for jp in priors.joints])
+    revolute = np.array([jp.type == JointType.REVOLUTE for jp in priors.joints])
     R_hat = T[:, :3, :3]
     U_hat = U_hat / np.linalg.norm(U_hat, axis=-1, keepdims=True).clip(1e-12)
     for j in range(J):  # the joint heads' axis sign may disagree with the canonical axis: align it
@@ -313,7 +267,7 @@ def kinematic_refine(
             raise InputError("the joints do not form a tree rooted at part 0")
     q = np.zeros(J)
     for j in range(J):
-        if jtype[j] == 0:
+        if revolute[j]:
             q[j] = revolute_angle(R_hat[parent[j]].T @ R_hat[child[j]], a[j])
 
     def chains(q):
@@ -321,7 +275,7 @@ def kinematic_refine(
         G[0] = np.eye(3)
         for k in order[1:]:
             j = joint_of[k]
-            rot = rotation_about_axis(a[j], q[j]) if jtype[j] == 0 else np.eye(3)
+            rot = rotation_about_axis(a[j], q[j]) if revolute[j] else np.eye(3)
             G[k] = G[parent[j]] @ rot
         return G
 
@@ -332,10 +286,10 @@ def kinematic_refine(
     for _ in range(int(iters)):
         G = chains(q)
         M = np.einsum("k,kij,klj->il", w, R_hat, G) + axis_weight * sum(np.outer(U_hat[j], G[parent[j]] @ a[j]) for j in range(J))
-        R0 = _procrustes(M)
+        R0 = closest_rotation(M)
         R = R0 @ G
         for j in range(J):
-            if jtype[j] != 0:
+            if not revolute[j]:
                 continue
             Rp = R[parent[j]]
             N = np.zeros((3, 3))
@@ -348,8 +302,8 @@ def kinematic_refine(
     out_T[:, :3, :3] = R
     axis = np.stack([R[parent[j]] @ a[j] for j in range(J)])
     state = q.copy()
-    zero = cfg.stats.joint_zero_offset_m or (0.0,) * J
-    for j in range(J):
-        if jtype[j] == 1:
-            state[j] = joint_state_from_poses(out_T[parent[j]], out_T[child[j]], axis[j], 1, S[parent[j]], S[child[j]], zero[j])
+    for j, jp in enumerate(priors.joints):
+        if jp.type == JointType.PRISMATIC:
+            state[j] = joint_state_from_poses(out_T[parent[j]], out_T[child[j]], axis[j], JointType.PRISMATIC, S[parent[j]], S[child[j]],
+                                              jp.zero_offset_m)
     return dict(cam_from_part=out_T, joint_axis=axis, joint_pivot=pivot, joint_state=state)

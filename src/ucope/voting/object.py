@@ -7,9 +7,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..geometry.kinematics import joint_state_from_poses
-from ..model.config import ModelConfig
+from ..priors import CategoryPriors
 from .joints import vote_joints
-from .kinematic import kinematic_refine, resolve_joint_flips, resolve_shape_flips
+from .kinematic import ShapeIndex, kinematic_refine, resolve_joint_flips, resolve_shape_flips
 from .part import VotingOptions, vote_parts
 
 __all__ = ["vote_object", "regressed_object"]
@@ -20,13 +20,15 @@ def vote_object(
     normals,
     pair_idx,
     outputs: Mapping[str, Any],
-    cfg: ModelConfig,
+    priors: CategoryPriors,
     awareness: bool = True,
     refine: bool = False,
     options: VotingOptions | None = None,
     resolve_flips: bool = True,
     shape_flips: bool = True,
     axis_heads=None,
+    shapes: ShapeIndex | None = None,
+    score_filter: bool | None = None,
 ) -> dict[str, Any]:
     """:func:`ucope.voting.part.vote_parts` + :func:`ucope.voting.joints.vote_joints` + joint states.
 
@@ -34,17 +36,19 @@ def vote_object(
     from the pose its points fit best is turned back (``shape_flips``,
     :func:`ucope.voting.kinematic.resolve_shape_flips`), and a part of an articulated object whose
     rotation is a half turn away from what its revolute joint allows is turned back
-    (:func:`ucope.voting.kinematic.resolve_joint_flips`; the shape check is not used there: measured,
-    it made the laptop's parts slightly worse).
+    (:func:`ucope.voting.kinematic.resolve_joint_flips`; the shape check applies to rigid objects
+    only, docs/voting.md says why).
     Joint states come from the voted poses (:func:`ucope.geometry.kinematics.joint_state_from_poses`)
-    about the voted joint axis (revolute), or from the box supports minus
-    ``cfg.stats.joint_zero_offset_m`` (prismatic; 0 when the statistics predate it). With
+    about the voted joint axis (revolute), or from the box supports minus the joint's
+    ``zero_offset_m`` (prismatic). With
     ``refine=True`` the poses, axes and states are then made consistent by
     :func:`ucope.voting.kinematic.kinematic_refine` (part scores as weights).
 
     Args: as :func:`ucope.voting.part.vote_parts` (``outputs`` also holding the joint heads for
-        ``K >= 2``; ``axis_heads`` computes the axis heads lazily); ``shape_flips=False`` turns the
-        shape check off alone.
+        ``K >= 2``; ``axis_heads`` computes the axis heads lazily); ``awareness``: the joint awareness
+        (and, unless ``score_filter`` says otherwise, the part-score filter); ``shape_flips=False``
+        turns the shape check off alone; ``shapes``: the priors' :class:`ShapeIndex` (built per call
+        when ``None``: build it once per model).
 
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
@@ -52,51 +56,51 @@ def vote_object(
         ``shape_turned`` ``(K,)`` those turned by the shape check; ``refined`` tells whether the
         kinematic refinement ran.
     """
-    out = vote_parts(points, normals, pair_idx, outputs, cfg, awareness=awareness, options=options, axis_heads=axis_heads)
-    out["shape_turned"] = np.zeros(cfg.num_parts, dtype=bool)
-    if resolve_flips and shape_flips and cfg.num_joints == 0:
+    score_filter = awareness if score_filter is None else score_filter
+    out = vote_parts(points, normals, pair_idx, outputs, priors, score_filter=score_filter, options=options, axis_heads=axis_heads)
+    out["shape_turned"] = np.zeros(priors.num_parts, dtype=bool)
+    if resolve_flips and shape_flips and priors.num_joints == 0:
         idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx)
-        idx = idx.reshape(cfg.num_parts, -1)
+        idx = idx.reshape(priors.num_parts, -1)
         pts = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64)
         out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(out["cam_from_part"], out["size_m"], pts,
-                                                                        [np.unique(i) for i in idx], cfg)
-    return _with_joints(out, points, outputs, cfg, awareness, refine, resolve_flips)
+                                                                        [np.unique(i) for i in idx], priors, shapes)
+    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
-def regressed_object(points, outputs: Mapping[str, Any], cfg: ModelConfig, awareness: bool = True, refine: bool = False,
+def regressed_object(points, outputs: Mapping[str, Any], priors: CategoryPriors, awareness: bool = True, refine: bool = False,
                      resolve_flips: bool = True) -> dict[str, Any]:
     """The same dict as :func:`vote_object` for the direct-regression baseline
     (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
     ``(1, K, 3, 3)``, ``centre_m`` ``(1, K, 3)`` and ``gamma`` ``(1, K, 3)`` outputs (score 1, no
     pairs), joints and joint states exactly as for U-COPE."""
-    K = cfg.num_parts
+    K = priors.num_parts
     R = outputs["rotation"].reshape(K, 3, 3).double().cpu().numpy()
     t = outputs["centre_m"].reshape(K, 3).double().cpu().numpy()
     gamma = outputs["gamma"].reshape(K, 3).double().cpu().numpy()
     T = np.tile(np.eye(4), (K, 1, 1))
     T[:, :3, :3], T[:, :3, 3] = R, t
-    out = {"cam_from_part": T, "size_m": np.exp(gamma) * np.asarray(cfg.stats.mean_size_m, np.float64),
+    out = {"cam_from_part": T, "size_m": np.exp(gamma) * priors.mean_size_m,
            "score": np.ones(K), "num_pairs": np.zeros(K, dtype=np.int64)}
-    return _with_joints(out, points, outputs, cfg, awareness, refine, resolve_flips)
+    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
-def _with_joints(out: dict, points, outputs, cfg: ModelConfig, awareness: bool, refine: bool, resolve_flips: bool = True) -> dict[str, Any]:
+def _with_joints(out: dict, points, outputs, priors: CategoryPriors, awareness: bool, refine: bool, resolve_flips: bool = True) -> dict[str, Any]:
     """Add the joints (:func:`vote_joints`), undo half-turn flips that contradict them
     (:func:`resolve_joint_flips`), then the joint states and the optional refinement."""
-    out.update(vote_joints(points, outputs, cfg, awareness=awareness))
-    J = cfg.num_joints
-    out["flipped"] = np.zeros(cfg.num_parts, dtype=bool)
+    out.update(vote_joints(points, outputs, priors, awareness=awareness))
+    J = priors.num_joints
+    out["flipped"] = np.zeros(priors.num_parts, dtype=bool)
     if resolve_flips and J > 0:
-        out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], cfg, out["size_m"])
+        out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], priors, out["size_m"])
     T, S = out["cam_from_part"], out["size_m"]
-    zero = cfg.stats.joint_zero_offset_m or (0.0,) * J
     state = np.zeros(J)
-    for j in range(J):  # a handful of joints
-        p, c = cfg.joint_parents[j], cfg.joint_children[j]
-        state[j] = joint_state_from_poses(T[p], T[c], out["joint_axis"][j], cfg.joint_types[j], S[p], S[c], zero[j])
+    for j, jp in enumerate(priors.joints):  # a handful of joints
+        p, c = jp.parent, jp.child
+        state[j] = joint_state_from_poses(T[p], T[c], out["joint_axis"][j], jp.type, S[p], S[c], jp.zero_offset_m)
     out["joint_state"] = state
     out["refined"] = False
     if refine and J > 0:
-        r = kinematic_refine(T, S, out, cfg, part_weights=np.maximum(out["score"], 1e-3))
+        r = kinematic_refine(T, S, out, priors, part_weights=np.maximum(out["score"], 1e-3))
         out.update(cam_from_part=r["cam_from_part"], joint_axis=r["joint_axis"], joint_state=r["joint_state"], refined=True)
     return out

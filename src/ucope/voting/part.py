@@ -4,7 +4,7 @@ For part ``k`` (:func:`vote_part`):
 
 1. **Part awareness**: the pairs whose predicted part score ``sigmoid(part_score) > 0.5`` vote (pairs
    across two parts carry wrong parameters). If fewer than ``min_pairs`` pass, every pair of the part
-   votes instead (``fallback``), which also lowers the score (below). ``awareness=False`` (ablation):
+   votes instead (``fallback``), which also lowers the score (below). ``score_filter=False`` (ablation):
    every pair votes with weight 1. Pairs of one point twice never vote (no direction); a part whose
    pairs are all such gets no estimate: identity rotation at the points' mean, the mean size, score 0.
 2. Decode ``mu, nu`` (on ``[-V_k, V_k]`` / ``[0, V_k]``) and ``alpha, beta`` (on ``[0, pi]``) with
@@ -33,6 +33,7 @@ the device of the inputs, its Gauss-Newton refinements in float64 numpy (see :mo
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import time
@@ -43,60 +44,62 @@ import numpy as np
 import torch
 
 from ..errors import InputError
-from ..model.config import ModelConfig
-from ..model.network import AXIS_HEADS
-from ._checks import as_tensor, strided, tensor
-from .axis import _choose_sign, _coarse_axis, _vote_axis
+from ..priors import CategoryPriors
+from ..vocab import AXIS_HEADS, VOTE_HEADS
+from .arrays import as_tensor, strided, tensor
+from .axis import AxisOptions, axis_from_cones, coarse_axes, signed_axis
 from .bins import decode_bins
-from .centre import DEFAULT_CELL_FRACTION, _vote_centre
-from .rotation import _refine_rotation, rotation_from_axes
+from .centre import CentreOptions, centre_from_circles
+from .rotation import rotation_from_axes, rotation_from_cones
 
-__all__ = ["VotingOptions", "PartVote", "vote_part", "vote_parts"]
+__all__ = ["VotingOptions", "PartVote", "vote_part", "vote_parts", "snap_to_visible_face", "as_points"]
 
 
 @dataclass(frozen=True)
 class VotingOptions:
-    """Voting hyper-parameters (defaults measured in tests/voting and benchmarks/bench_voting.py).
+    """Voting settings (defaults measured in tests/voting and benchmarks/bench_voting.py).
 
     Attributes:
         score_threshold: part-score probability above which a pair votes (paper: 0.5).
         min_pairs: fewest passing pairs before falling back to every pair of the part.
         window: decoding window, bins either side of the argmax.
-        cell_fraction: grid cell as a fraction of the vote range ``V_k``.
-        num_angles: candidates per circle (centre); axis_num_angles: per cone (axes).
-        centre_inlier_cells: a pair is a centre inlier if its circle is within this many cells.
-        max_grid_pairs: most pairs casting centre grid votes; max_refine_pairs: most pairs in the
-            centre refinement; max_axis_pairs: most centre inliers voting the axes (decoded, refined
-            and used for the sign and the rotation refinement); max_coarse_pairs: most of those in
-            the coarse axis vote. All are evenly strided subsets; the centre inlier test, the size and
-            the score use every voting pair.
-        axis_grid: cells per cube-map face side of the coarse axis vote (32: about 2.8 degrees).
-        axis_tol_deg: axis inlier tolerance and initial refinement scale (degrees).
+        centre: :class:`ucope.voting.centre.CentreOptions` of the centre vote (here the refinement
+            runs on at most 1024 pairs).
+        axis: :class:`ucope.voting.axis.AxisOptions` of the up and right votes; its ``tol_deg`` and
+            ``min_tol_deg`` also scale the sign choice and the rotation refinement.
+        max_axis_pairs: most centre inliers voting the axes (an evenly strided subset; decoded, refined
+            on and used for the signs and the rotation refinement). The centre inlier test, the size
+            and the score use every voting pair.
         use_sign_bits: use the predicted sign bits to choose the axis signs.
-        refine_rotation: jointly refine the rotation on both axes' cones.
-        thin_snap_ratio: surface snap of thin parts (0: off; default 0.25, measured in docs/voting.md). A part whose smallest box extent is below
-            this fraction of its middle one (a plate: laptop lid, scissor blade) has its centre moved
-            along that thin axis so that its visible points lie on the box face towards the camera
-            (the camera is the origin of the points' frame). The pair geometry hardly constrains the
-            centre along the normal of a plate (``nu`` changes only to second order with it).
+        sign_margin: pairs whose normal is within this cosine of perpendicular to an axis carry no
+            sign information.
+        refine_rotation: jointly refine the rotation on both axes' cones; rotation_iters: its
+            Gauss-Newton iterations.
+        thin_snap_ratio: surface snap of thin parts (0: off; default 0.25, measured in
+            docs/voting.md). A part whose smallest box extent is below this fraction of its middle one
+            (a plate: laptop lid, scissor blade) has its centre moved along that thin axis so that its
+            visible points lie on the box face towards the camera (the camera is the origin of the
+            points' frame): the pair geometry hardly constrains the centre along the normal of a plate
+            (``nu`` changes only to second order with it).
     """
 
     score_threshold: float = 0.5
     min_pairs: int = 8
     window: int = 1
-    cell_fraction: float = DEFAULT_CELL_FRACTION
-    num_angles: int = 36
-    centre_inlier_cells: float = 2.0
-    max_grid_pairs: int = 4096
-    max_refine_pairs: int = 1024
+    centre: CentreOptions = CentreOptions(max_refine_pairs=1024)
+    axis: AxisOptions = AxisOptions()
     max_axis_pairs: int = 1024
-    axis_grid: int = 32
-    axis_tol_deg: float = 5.0
-    max_coarse_pairs: int = 1024
-    axis_num_angles: int = 24
     use_sign_bits: bool = True
+    sign_margin: float = 0.05
     refine_rotation: bool = True
+    rotation_iters: int = 4
     thin_snap_ratio: float = 0.25
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.score_threshold < 1.0:
+            raise InputError(f"score_threshold must be in [0, 1), got {self.score_threshold}")
+        if int(self.min_pairs) < 1 or int(self.max_axis_pairs) < 1 or int(self.window) < 0 or int(self.rotation_iters) < 0:
+            raise InputError("min_pairs and max_axis_pairs must be positive, window and rotation_iters >= 0")
 
 
 @dataclass
@@ -136,7 +139,7 @@ def vote_part(
     vote_range_m: float,
     mean_size_m,
     symmetric: bool = False,
-    awareness: bool = True,
+    score_filter: bool = True,
     options: VotingOptions | None = None,
 ) -> PartVote:
     """Vote the 9D pose of one part from its ``M`` pairs (see the module docstring).
@@ -148,7 +151,8 @@ def vote_part(
             ``(M,)`` logits: this part's heads of :meth:`ucope.model.network.UCOPENet.pair_heads`.
         vote_range_m: ``V_k`` (metres); mean_size_m: ``(3,)`` the category mean size of the part.
         symmetric: the part is symmetric about ``y`` (only the up axis is voted).
-        awareness: filter pairs by part score (``False``: the ablation without awareness).
+        score_filter: only pairs whose part score passes ``options.score_threshold`` vote (the part
+            awareness of the paper's equation (10); ``False``: every pair votes, an ablation).
         options: :class:`VotingOptions`.
 
     Returns:
@@ -180,11 +184,11 @@ def vote_part(
     mu = decode_bins(mu_l, -V, V, opt.window)
     nu = decode_bins(nu_l, 0.0, V, opt.window)
     return _vote_part(a, b, n_a, mu, nu, functools.partial(_rows, (al_l, be_l, sg_l)), gam, torch.sigmoid(ps), V, mean_size,
-                      symmetric, awareness, opt, t0)
+                      symmetric, score_filter, opt, t0)
 
 
 def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: np.ndarray, symmetric: bool,
-               awareness: bool, opt: VotingOptions, t0: float) -> PartVote:
+               score_filter: bool, opt: VotingOptions, t0: float) -> PartVote:
     """:func:`vote_part` on checked inputs, with ``mu, nu`` ``(M,)`` already decoded (for every pair:
     decoding is row-wise, so :func:`vote_parts` decodes all parts at once), ``axis_logits(rows)`` the
     ``alpha``, ``beta`` and sign logits of the pairs ``rows`` ``(A,)`` (``(A, bins)``, ``(A, bins)``,
@@ -197,7 +201,7 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     fallback = False
     distinct = (a != b).any(-1)
     sel = torch.nonzero(distinct).squeeze(-1)
-    if awareness:
+    if score_filter:
         passing = torch.nonzero(distinct & (prob > float(opt.score_threshold))).squeeze(-1)
         if len(passing) >= int(opt.min_pairs):
             sel = passing
@@ -215,10 +219,7 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     # 3. Centre.
     at = a[sel].T.contiguous()
     bt = b[sel].T.contiguous()
-    centre, inl, et = _vote_centre(
-        at, bt, mu, nu, torch.ones(S, device=dev), V * float(opt.cell_fraction), int(opt.num_angles),
-        float(opt.centre_inlier_cells), 0.1, 8, 96, int(opt.max_grid_pairs), int(opt.max_refine_pairs),
-    )
+    centre, inl, et = centre_from_circles(at, bt, mu, nu, torch.ones(S, device=dev), V * float(opt.centre.cell_fraction), opt.centre)
     n_inl = int(inl.sum())
     pool = torch.nonzero(inl).squeeze(-1) if n_inl > 0 else torch.arange(S, device=dev)
     t2 = time.perf_counter()
@@ -229,20 +230,21 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     n_ax = n_a[gi].T.contiguous()
     ones = torch.ones(len(ax), device=dev)
     every = torch.ones(len(ax), dtype=torch.bool, device=dev)
-    axis_args = ("cubemap", int(opt.axis_num_angles), int(opt.axis_grid), 0, float(opt.axis_tol_deg), 0.2, 6, int(opt.max_coarse_pairs), len(ax))
+    ao = opt.axis
+    ao_all = dataclasses.replace(ao, max_refine_pairs=max(len(ax), 1))  # the axes refine on every axis pair
     al_l, be_l, sg_l = axis_logits(gi)
     alpha = decode_bins(al_l, 0.0, math.pi, opt.window)
     beta = None if symmetric else decode_bins(be_l, 0.0, math.pi, opt.window)
     # The coarse vote of both axes at once (the same pairs and cone bases; one cube-map histogram).
-    cs = strided(torch.arange(len(ax), device=dev), int(opt.max_coarse_pairs))
-    coarse = _coarse_axis(e_ax[:, cs], alpha[cs] if symmetric else torch.stack([alpha[cs], beta[cs]]), ones[cs],
-                          int(opt.axis_num_angles), int(opt.axis_grid))
-    up, _ = _vote_axis(e_ax, alpha, ones, *axis_args, coarse=coarse if symmetric else coarse[0], inliers=False)
-    up, _ = _choose_sign(up, e_ax, alpha, n_ax, sg_l[:, 0], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
+    cs = strided(torch.arange(len(ax), device=dev), int(ao.max_coarse_pairs))
+    coarse = coarse_axes(e_ax[:, cs], alpha[cs] if symmetric else torch.stack([alpha[cs], beta[cs]]), ones[cs],
+                         int(ao.num_angles), int(ao.grid))
+    up, _ = axis_from_cones(e_ax, alpha, ones, ao_all, coarse=coarse if symmetric else coarse[0], with_inliers=False)
+    up, _ = signed_axis(up, e_ax, alpha, n_ax, sg_l[:, 0], every, float(ao.tol_deg), float(opt.sign_margin), opt.use_sign_bits)
     right = None
     if not symmetric:
-        right, _ = _vote_axis(e_ax, beta, ones, *axis_args, coarse=coarse[1], inliers=False)
-        right, _ = _choose_sign(right, e_ax, beta, n_ax, sg_l[:, 1], every, float(opt.axis_tol_deg), 0.05, opt.use_sign_bits)
+        right, _ = axis_from_cones(e_ax, beta, ones, ao_all, coarse=coarse[1], with_inliers=False)
+        right, _ = signed_axis(right, e_ax, beta, n_ax, sg_l[:, 1], every, float(ao.tol_deg), float(opt.sign_margin), opt.use_sign_bits)
     t3 = time.perf_counter()
     # 5. Rotation. Both axes voted onto (nearly) one direction happens on garbage votes: take y alone
     # then (x any perpendicular) and let the refinement find x on the beta cones.
@@ -251,13 +253,13 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     R = rotation_from_axes(up, right)
     if opt.refine_rotation:
         terms = [(1, e_ax, alpha, ones)] + ([] if symmetric else [(0, e_ax, beta, ones)])
-        R = _refine_rotation(R, terms, 4, float(opt.axis_tol_deg), 0.2)
+        R = rotation_from_cones(R, terms, int(opt.rotation_iters), float(ao.tol_deg), float(ao.min_tol_deg))
     t4 = time.perf_counter()
     # 6. Size and score.
     g = gam[sel[pool]].mean(0)
     size = np.exp(g.double().cpu().numpy()) * mean_size
     if opt.thin_snap_ratio > 0:
-        centre = _snap_thin(centre, R, size, a[sel[pool]], float(opt.thin_snap_ratio), symmetric)
+        centre = snap_to_visible_face(centre, R, size, a[sel[pool]], float(opt.thin_snap_ratio), symmetric)
     score = (n_inl / S) * float(prob[sel].mean())
     T = np.eye(4)
     T[:3, :3] = R.double().cpu().numpy()
@@ -270,7 +272,7 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     )
 
 
-def _snap_thin(centre: torch.Tensor, R: torch.Tensor, size: np.ndarray, pts: torch.Tensor, ratio: float, symmetric: bool) -> torch.Tensor:
+def snap_to_visible_face(centre: torch.Tensor, R: torch.Tensor, size: np.ndarray, pts: torch.Tensor, ratio: float, symmetric: bool) -> torch.Tensor:
     """:attr:`VotingOptions.thin_snap_ratio`: ``centre`` moved along the thin axis of the box so that
     the median of the part's points ``pts`` ``(P, 3)`` lies on the box face towards the camera. A part
     symmetric about y is snapped only along y (its x and z axes are arbitrary)."""
@@ -296,8 +298,8 @@ def vote_parts(
     normals,
     pair_idx,
     outputs: Mapping[str, Any],
-    cfg: ModelConfig,
-    awareness: bool = True,
+    priors: CategoryPriors,
+    score_filter: bool = True,
     options: VotingOptions | None = None,
     axis_heads: Callable[[int, torch.Tensor], Mapping[str, Any]] | None = None,
 ) -> dict[str, Any]:
@@ -310,9 +312,8 @@ def vote_parts(
             column = ``a``).
         outputs: the dict of :meth:`ucope.model.network.UCOPENet.forward` (``mu_logits``...,
             ``(1, K, M, ...)`` tensors).
-        cfg: the model's :class:`ucope.model.config.ModelConfig` (bins, vote ranges, mean sizes,
-            symmetry).
-        awareness: part awareness on (paper) or off (ablation).
+        priors: the category's :class:`ucope.priors.CategoryPriors` (vote ranges, mean sizes, symmetry).
+        score_filter: the part-score filter on (paper) or off (ablation), see :func:`vote_part`.
         axis_heads: optional ``axis_heads(k, rows)`` -> ``alpha_logits``, ``beta_logits``,
             ``sign_logits`` of part ``k``'s pairs ``rows`` ``(A,)`` (``(A, ...)`` tensors); then
             ``outputs`` may omit those heads. The estimator passes
@@ -325,7 +326,7 @@ def vote_parts(
         ``(K,)``, ``num_pairs`` / ``num_inliers`` ``(K,)`` int, ``fallback`` ``(K,)`` bool, and
         ``timings_ms`` (a list of per-part stage timings).
     """
-    K = cfg.num_parts
+    K = priors.num_parts
     pts = as_points(points, "points")
     nrm = as_points(normals, "normals", device=pts.device)
     if nrm.shape != pts.shape:
@@ -339,7 +340,7 @@ def vote_parts(
     if bool((idx < 0).any()) or bool((idx >= N).any()):
         raise InputError(f"pair_idx holds indices outside [0, {N})")
     heads = {}
-    names = ("mu_logits", "nu_logits", "gamma", "part_score") + (() if axis_heads is not None else AXIS_HEADS)
+    names = VOTE_HEADS + (() if axis_heads is not None else AXIS_HEADS)
     for name in names:
         if name not in outputs:
             raise InputError(f"outputs lack {name!r} (run the network with pair_idx)")
@@ -360,12 +361,13 @@ def vote_parts(
     )
     opt = options or VotingOptions()
     t0 = time.perf_counter()
-    V = torch.tensor(cfg.stats.vote_range_m, dtype=pts.dtype, device=pts.device).view(K, 1)
+    V = torch.tensor(priors.vote_range_m, dtype=pts.dtype, device=pts.device).view(K, 1)
     mu_all = decode_bins(heads["mu_logits"], -V, V, opt.window)  # (K, M), every part at once
     nu_all = decode_bins(heads["nu_logits"], 0.0, V, opt.window)
     prob_all = torch.sigmoid(heads["part_score"])
     gamma_all = heads["gamma"].contiguous()  # a strided view of the output layer: rows gather faster
-    mean_sizes = np.asarray(cfg.stats.mean_size_m, dtype=np.float64).reshape(K, 3)
+    mean_sizes = priors.mean_size_m
+    vote_ranges = priors.vote_range_m
     for k in range(K):  # a handful of parts; everything inside is vectorised over pairs
         ia, ib = idx[k, :, 0], idx[k, :, 1]
         if axis_heads is None:
@@ -374,7 +376,7 @@ def vote_parts(
             axis_logits = functools.partial(_lazy_rows, axis_heads, k)
         r = _vote_part(
             pts[ia], pts[ib], nrm[ia], mu_all[k], nu_all[k], axis_logits, gamma_all[k], prob_all[k],
-            float(cfg.stats.vote_range_m[k]), mean_sizes[k], cfg.part_symmetry[k] == "y", awareness, opt,
+            float(vote_ranges[k]), mean_sizes[k], priors.symmetric[k], score_filter, opt,
             t0 if k == 0 else time.perf_counter(),
         )
         out["cam_from_part"][k] = r.cam_from_part

@@ -12,10 +12,10 @@ import numpy as np
 import torch
 
 from ..errors import InputError
-from ._checks import tensor
-from .centre import _median, _np64
+from ..geometry.transforms import closest_rotation
+from .arrays import median, np64, tensor
 
-__all__ = ["rotation_from_axes", "perpendicular_axis", "refine_rotation", "so3_exp"]
+__all__ = ["rotation_from_axes", "perpendicular_axis", "refine_rotation", "rotation_from_cones"]
 
 
 def perpendicular_axis(up: torch.Tensor) -> torch.Tensor:
@@ -60,23 +60,9 @@ def rotation_from_axes(up, right=None) -> torch.Tensor:
     x = x / nx
     if float(torch.linalg.cross(x, y).norm()) < 1e-6:
         raise InputError("up and right are parallel: no rotation")
-    xn, yn = _np64(x), _np64(y)
-    U, _, Vh = np.linalg.svd(np.stack([xn, yn, np.cross(xn, yn)], axis=1))  # a 3x3: numpy is cheaper
-    if np.linalg.det(U @ Vh) < 0:
-        U[:, 2] = -U[:, 2]
-    return torch.as_tensor(U @ Vh, dtype=y.dtype, device=y.device)
-
-
-def so3_exp(w: torch.Tensor) -> torch.Tensor:
-    """``(3, 3)`` rotation ``exp([w]_x)`` (Rodrigues) of a rotation vector ``w`` ``(3,)``."""
-    th = w.norm()
-    K = torch.zeros(3, 3, dtype=w.dtype, device=w.device)
-    K[0, 1], K[0, 2], K[1, 2] = -w[2], w[1], -w[0]
-    K = K - K.T
-    eye = torch.eye(3, dtype=w.dtype, device=w.device)
-    if float(th) < 1e-8:
-        return eye + K
-    return eye + torch.sin(th) / th * K + (1.0 - torch.cos(th)) / th**2 * (K @ K)
+    xn, yn = np64(x), np64(y)
+    R = closest_rotation(np.stack([xn, yn, np.cross(xn, yn)], axis=1))  # a 3x3: numpy is cheaper
+    return torch.as_tensor(R, dtype=y.dtype, device=y.device)
 
 
 def refine_rotation(
@@ -121,11 +107,11 @@ def refine_rotation(
         ang = tensor(ang, "angle", (M,), device=dev)
         w = tensor(w, "weights", (M,), device=dev)
         prepared.append((col, e.T.contiguous(), ang, w))
-    return _refine_rotation(R, prepared, int(iters), float(tol_deg), float(min_tol_deg))
+    return rotation_from_cones(R, prepared, int(iters), float(tol_deg), float(min_tol_deg))
 
 
-def _so3_exp_np(w: np.ndarray) -> np.ndarray:
-    """:func:`so3_exp` in float64 numpy."""
+def _so3_exp(w: np.ndarray) -> np.ndarray:
+    """``(3, 3)`` rotation ``exp([w]_x)`` (Rodrigues) of a rotation vector ``w`` ``(3,)``, float64 numpy."""
     th = float(np.linalg.norm(w))
     K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     if th < 1e-8:
@@ -133,18 +119,19 @@ def _so3_exp_np(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + math.sin(th) / th * K + (1.0 - math.cos(th)) / th**2 * (K @ K)
 
 
-def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -> torch.Tensor:
-    """:func:`refine_rotation` on ``terms = [(column, e (3, M) coordinate-major, angle (M,), w (M,))]``.
+def rotation_from_cones(R: torch.Tensor, terms: list, iters: int, tol_deg: float, min_tol_deg: float) -> torch.Tensor:
+    """The work of :func:`refine_rotation` on inputs it has checked: ``terms = [(column, e (3, M)
+    coordinate-major, angle (M,), w (M,))]`` (column 1: up, 0: right).
 
     Runs in float64 numpy on the CPU (a few dozen small operations per iteration: numpy's per-call
     cost is a fraction of torch's); returns a rotation of ``R``'s dtype and device."""
     dtype, dev = R.dtype, R.device
     prepared = []
     for col, et, ang, w in terms:
-        ang = _np64(ang)
-        prepared.append([col, _np64(et), ang, np.cos(ang), _np64(w), math.radians(tol_deg)])
+        ang = np64(ang)
+        prepared.append([col, np64(et), ang, np.cos(ang), np64(w), math.radians(tol_deg)])
     tol_min = math.radians(min_tol_deg)
-    Rn = _np64(R)
+    Rn = np64(R)
     eye = np.eye(3)
     for _ in range(iters):
         H = np.zeros((3, 3))
@@ -165,7 +152,7 @@ def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -
             Jw = J * wi
             H += Jw @ J.T
             g += Jw @ (x - c)
-            term[5] = min(tol, max(tol_min, 3.0 * _median(r_ang[inl])))
+            term[5] = min(tol, max(tol_min, 3.0 * median(r_ang[inl])))
         tr = float(np.trace(H))
         if tr <= 0:
             break
@@ -175,8 +162,7 @@ def _refine_rotation(R, terms, iters: int, tol_deg: float, min_tol_deg: float) -
             break
         if not np.all(np.isfinite(d)):
             break
-        Rn = _so3_exp_np(d) @ Rn
+        Rn = _so3_exp(d) @ Rn
         if float(np.linalg.norm(d)) < 1e-3 * tol_min and all(t[5] <= tol_min for t in prepared):  # converged
             break
-    U, _, Vh = np.linalg.svd(Rn)  # re-orthonormalise
-    return torch.as_tensor(U @ Vh, dtype=dtype, device=dev)
+    return torch.as_tensor(closest_rotation(Rn), dtype=dtype, device=dev)  # re-orthonormalised

@@ -1,0 +1,384 @@
+"""What a trained model knows about its category: structure and measured statistics.
+
+Prediction (:mod:`ucope.voting`, :mod:`ucope.estimation`) needs a category's joint tree, joint limits,
+part symmetries, size statistics and the templates of its flip checks. All of it is measured when a
+model is trained (:func:`measure_priors`, from the training samples and the data set's declared
+structure) and stored in the model files, so a model predicts without the generator (or the meshes)
+that made its data.
+
+* :class:`PartPrior`: a part's name, symmetry, vote range and mean size;
+* :class:`JointPrior`: a joint's type, parent and child, canonical axis in the parent frame, state
+  limits, prismatic zero offset and where its two parts' centres sit relative to each other;
+* :class:`CategoryPriors`: the whole category, plus per-part shape templates (surface points in each
+  part's unit box) and the input normalisation scale.
+
+The declared structure of a data set (``meta.json["structure"]``, :func:`structure_from_dict`) holds
+the part names and symmetries and, per joint, its type, parent, child, canonical axis and limits.
+
+Frames and units: a part frame has its amodal box centred on its origin (docs/conventions.md); metres,
+radians. JSON forms use plain lists; the shape templates travel as tensors beside the weights.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+from .vocab import JointType, parse_symmetry
+
+__all__ = [
+    "PartPrior",
+    "JointPrior",
+    "CategoryPriors",
+    "structure_from_dict",
+    "measure_priors",
+    "placement_offsets",
+    "shape_template_points",
+]
+
+TEMPLATE_POINTS = 4096
+"""Points per part kept in a shape template measured from training views."""
+
+
+def _finite(values, name: str, positive: bool = False) -> np.ndarray:
+    arr = np.asarray(values, dtype=np.float64)
+    if not np.all(np.isfinite(arr)) or (positive and np.any(arr <= 0)):
+        raise InputError(f"{name} must be {'positive ' if positive else ''}finite numbers, got {np.asarray(values).tolist()}")
+    return arr
+
+
+@dataclass(frozen=True)
+class PartPrior:
+    """One part of a category.
+
+    Attributes:
+        name: the part's name (``"base"``, ``"lid"``...).
+        symmetry: ``"none"`` or ``"y"`` (continuous symmetry about the part's y axis).
+        vote_range_m: ``V``: an upper bound of the distance from any point of the part to its box
+            centre (1.1 x the largest half box diagonal seen); ``mu`` is binned on ``[-V, V]``, ``nu``
+            on ``[0, V]``.
+        mean_size_m: ``(3,)`` the geometric mean of the part's box extents; ``gamma = log(size) -
+            log(mean_size_m)``.
+    """
+
+    name: str
+    symmetry: str
+    vote_range_m: float
+    mean_size_m: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        parse_symmetry(self.symmetry)
+        object.__setattr__(self, "vote_range_m", float(_finite(self.vote_range_m, f"part {self.name!r} vote_range_m", True)))
+        size = _finite(self.mean_size_m, f"part {self.name!r} mean_size_m", True).reshape(-1)
+        if size.shape != (3,):
+            raise InputError(f"part {self.name!r}: mean_size_m needs 3 values, got {size.shape}")
+        object.__setattr__(self, "mean_size_m", tuple(float(x) for x in size))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "symmetry": self.symmetry, "vote_range_m": self.vote_range_m,
+                "mean_size_m": list(self.mean_size_m)}
+
+
+@dataclass(frozen=True)
+class JointPrior:
+    """One joint of a category.
+
+    Attributes:
+        type: :class:`ucope.vocab.JointType` (revolute or prismatic).
+        parent, child: part indices.
+        axis_in_parent: ``(3,)`` the unit joint axis in the parent's part frame (the rotation of
+            ``parent_from_child`` at state 0 is the identity in every category: docs/conventions.md).
+        limits: ``(lower, upper)`` joint states (radians / metres) the category spans; ``None`` on a
+            side that is unlimited (a continuous joint).
+        zero_offset_m: prismatic: the gap between the child's and the parent's box supports along the
+            axis minus the state, at the true poses (:func:`ucope.geometry.kinematics.prismatic_zero_offset`);
+            0 for revolute joints.
+        child_in_parent, parent_in_child: ``(3,)`` mean position of the child's box centre in the parent's
+            frame divided by the parent's box diagonal, and of the parent's centre in the child's frame
+            divided by the child's diagonal (over the category's instances and joint range): where each
+            part's neighbour sits, used to undo half-turn flips (:func:`ucope.voting.kinematic.resolve_joint_flips`).
+    """
+
+    type: JointType
+    parent: int
+    child: int
+    axis_in_parent: tuple[float, float, float]
+    limits: tuple[float | None, float | None] = (None, None)
+    zero_offset_m: float = 0.0
+    child_in_parent: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    parent_in_child: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        jt = JointType.parse(self.type)
+        if jt == JointType.FIXED:
+            raise InputError(f"joint {self.parent}->{self.child}: a category joint must be revolute or prismatic (fixed parts merge)")
+        object.__setattr__(self, "type", jt)
+        ax = _finite(self.axis_in_parent, f"joint {self.parent}->{self.child} axis_in_parent").reshape(-1)
+        if ax.shape != (3,) or np.linalg.norm(ax) < 1e-9:
+            raise InputError(f"joint {self.parent}->{self.child}: axis_in_parent must be a non-zero 3-vector, got {ax.tolist()}")
+        object.__setattr__(self, "axis_in_parent", tuple(float(x) for x in ax / np.linalg.norm(ax)))
+        lo, hi = (None if v is None else float(v) for v in self.limits)
+        if (lo is not None and not math.isfinite(lo)) or (hi is not None and not math.isfinite(hi)):
+            raise InputError(f"joint {self.parent}->{self.child}: limits must be finite numbers or None, got {self.limits}")
+        if lo is not None and hi is not None and lo > hi:
+            raise InputError(f"joint {self.parent}->{self.child}: limits must satisfy lower <= upper, got {self.limits}")
+        object.__setattr__(self, "limits", (lo, hi))
+        object.__setattr__(self, "zero_offset_m", float(_finite(self.zero_offset_m, "zero_offset_m")))
+        for name in ("child_in_parent", "parent_in_child"):
+            v = _finite(getattr(self, name), name).reshape(-1)
+            if v.shape != (3,):
+                raise InputError(f"joint {self.parent}->{self.child}: {name} needs 3 values")
+            object.__setattr__(self, name, tuple(float(x) for x in v))
+
+    @property
+    def axis(self) -> np.ndarray:
+        """``(3,)`` float64 copy of :attr:`axis_in_parent`."""
+        return np.array(self.axis_in_parent, dtype=np.float64)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": self.type.label, "parent": int(self.parent), "child": int(self.child),
+                "axis_in_parent": list(self.axis_in_parent), "limits": list(self.limits),
+                "zero_offset_m": self.zero_offset_m, "child_in_parent": list(self.child_in_parent),
+                "parent_in_child": list(self.parent_in_child)}
+
+
+@dataclass(frozen=True)
+class CategoryPriors:
+    """Everything prediction needs to know about a category (see the module docstring).
+
+    Attributes:
+        category: the category's name.
+        parts: the K :class:`PartPrior`, root first.
+        joints: the K-1 :class:`JointPrior`; they form a tree rooted at part 0, parents listed before
+            their children.
+        norm_scale_m: the length the encoder's input is divided by (mean cloud radius of the training
+            views about their centroid).
+        num_samples: how many training samples the statistics were measured on.
+        shape_templates: per part, ``(P_k, 3)`` float32 surface points in the part's unit box (part frame
+            divided by the box extents), seen over the category's instances; ``()`` when not measured
+            (the rigid shape-flip check is then skipped).
+    """
+
+    category: str
+    parts: tuple[PartPrior, ...]
+    joints: tuple[JointPrior, ...] = ()
+    norm_scale_m: float = 1.0
+    num_samples: int = 0
+    shape_templates: tuple[np.ndarray, ...] = field(default=(), compare=False)
+
+    def __post_init__(self) -> None:
+        parts, joints = tuple(self.parts), tuple(self.joints)
+        object.__setattr__(self, "parts", parts)
+        object.__setattr__(self, "joints", joints)
+        K = len(parts)
+        if K == 0:
+            raise InputError(f"category {self.category!r}: a category needs at least one part")
+        if len({p.name for p in parts}) != K:
+            raise InputError(f"category {self.category!r}: part names must be unique, got {[p.name for p in parts]}")
+        if len(joints) != K - 1:
+            raise InputError(f"category {self.category!r}: {K} parts need {K - 1} joints, got {len(joints)}")
+        placed = {0}
+        for j in joints:
+            if not (0 <= j.parent < K and 0 < j.child < K):
+                raise InputError(f"category {self.category!r}: joint {j.parent}->{j.child} names a part outside 0..{K - 1}")
+            if j.parent not in placed or j.child in placed:
+                raise InputError(f"category {self.category!r}: the joints must form a tree rooted at part 0, parents before children")
+            placed.add(j.child)
+        object.__setattr__(self, "norm_scale_m", float(_finite(self.norm_scale_m, "norm_scale_m", True)))
+        templates = tuple(np.ascontiguousarray(t, dtype=np.float32).reshape(-1, 3) for t in self.shape_templates)
+        if templates and len(templates) != K:
+            raise InputError(f"category {self.category!r}: {len(templates)} shape templates for {K} parts")
+        if any(not np.all(np.isfinite(t)) for t in templates):
+            raise InputError(f"category {self.category!r}: shape templates must be finite")
+        object.__setattr__(self, "shape_templates", templates)
+
+    # ------------------------------------------------------------------------------------ views
+    @property
+    def num_parts(self) -> int:
+        return len(self.parts)
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.joints)
+
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parts)
+
+    @property
+    def symmetric(self) -> tuple[bool, ...]:
+        """Per part, whether it is symmetric about its y axis."""
+        return tuple(p.symmetry == "y" for p in self.parts)
+
+    @property
+    def vote_range_m(self) -> np.ndarray:
+        """``(K,)`` float64."""
+        return np.array([p.vote_range_m for p in self.parts], dtype=np.float64)
+
+    @property
+    def mean_size_m(self) -> np.ndarray:
+        """``(K, 3)`` float64."""
+        return np.array([p.mean_size_m for p in self.parts], dtype=np.float64)
+
+    @property
+    def joint_axes(self) -> np.ndarray:
+        """``(J, 3)`` float64 unit axes, each in its parent's frame."""
+        return np.array([j.axis_in_parent for j in self.joints], dtype=np.float64).reshape(-1, 3)
+
+    # ------------------------------------------------------------------------------ (de)serialise
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form (everything but the shape templates: :meth:`tensors`)."""
+        return {"category": self.category, "parts": [p.to_dict() for p in self.parts],
+                "joints": [j.to_dict() for j in self.joints], "norm_scale_m": self.norm_scale_m,
+                "num_samples": int(self.num_samples)}
+
+    def tensors(self) -> dict[str, np.ndarray]:
+        """The shape templates as named float32 arrays (``shape_template.<k>``), stored beside the weights."""
+        return {f"shape_template.{k}": t for k, t in enumerate(self.shape_templates)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], tensors: Mapping[str, Any] | None = None) -> CategoryPriors:
+        """Inverse of :meth:`to_dict` (+ :meth:`tensors`); :class:`InputError` on a malformed form."""
+        try:
+            parts = tuple(PartPrior(name=str(p["name"]), symmetry=str(p["symmetry"]), vote_range_m=p["vote_range_m"],
+                                    mean_size_m=tuple(p["mean_size_m"])) for p in d["parts"])
+            joints = tuple(JointPrior(type=j["type"], parent=int(j["parent"]), child=int(j["child"]),
+                                      axis_in_parent=tuple(j["axis_in_parent"]), limits=tuple(j["limits"]),
+                                      zero_offset_m=j.get("zero_offset_m", 0.0), child_in_parent=tuple(j["child_in_parent"]),
+                                      parent_in_child=tuple(j["parent_in_child"])) for j in d["joints"])
+            templates: tuple = ()
+            if tensors:
+                templates = tuple(np.asarray(tensors[f"shape_template.{k}"]) for k in range(len(parts)))
+            return cls(category=str(d["category"]), parts=parts, joints=joints, norm_scale_m=d["norm_scale_m"],
+                       num_samples=int(d.get("num_samples", 0)), shape_templates=templates)
+        except (KeyError, TypeError, ValueError) as e:
+            raise InputError(f"malformed category priors: {type(e).__name__}: {e}") from None
+
+    def with_templates(self, shape_templates: Sequence[np.ndarray]) -> CategoryPriors:
+        """A copy with other shape templates."""
+        return replace(self, shape_templates=tuple(shape_templates))
+
+
+# -------------------------------------------------------------------------------------- structure
+def structure_from_dict(d: Mapping[str, Any]) -> tuple[list[tuple[str, str]], list[dict[str, Any]]]:
+    """A data set's declared structure (``meta.json["structure"]``): ``(parts, joints)`` with parts as
+    ``(name, symmetry)`` and joints as dicts of ``type`` (:class:`JointType`), ``parent``, ``child``,
+    ``axis_in_parent`` ``(3,)`` and ``limits`` ``(lower | None, upper | None)``.
+
+    Raises :class:`InputError` naming what is missing or malformed."""
+    try:
+        parts = [(str(p["name"]), parse_symmetry(p["symmetry"])) for p in d["parts"]]
+        joints = [{"type": JointType.parse(j["type"]), "parent": int(j["parent"]), "child": int(j["child"]),
+                   "axis_in_parent": _finite(j["axis_in_parent"], "axis_in_parent").reshape(3),
+                   "limits": tuple(None if v is None else float(v) for v in j["limits"])} for j in d["joints"]]
+    except (KeyError, TypeError, ValueError) as e:
+        raise InputError(f"malformed category structure ({type(e).__name__}: {e}): expected parts [{{name, symmetry}}] "
+                         "and joints [{type, parent, child, axis_in_parent, limits}]") from None
+    if len(joints) != len(parts) - 1:
+        raise InputError(f"the structure declares {len(parts)} parts and {len(joints)} joints; it needs {len(parts) - 1}")
+    return parts, joints
+
+
+def placement_offsets(cam_from_part: np.ndarray, size_m: np.ndarray, parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
+    """Where each of a joint's two parts sits in the other's frame, in units of the other's box diagonal.
+
+    Args:
+        cam_from_part: ``(S, K, 4, 4)`` part poses of ``S`` views; size_m: ``(S, K, 3)`` box extents.
+
+    Returns:
+        ``(child_in_parent, parent_in_child)``, each ``(S, 3)``: ``R_p^T (t_c - t_p) / |size_p|`` and
+        ``R_c^T (t_p - t_c) / |size_c|``.
+    """
+    T = np.asarray(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    d = T[:, child, :3, 3] - T[:, parent, :3, 3]
+    cip = np.einsum("sji,sj->si", T[:, parent, :3, :3], d) / np.linalg.norm(S[:, parent], axis=-1, keepdims=True)
+    pic = np.einsum("sji,sj->si", T[:, child, :3, :3], -d) / np.linalg.norm(S[:, child], axis=-1, keepdims=True)
+    return cip, pic
+
+
+def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_points: int = TEMPLATE_POINTS) -> np.ndarray:
+    """``(P, 3)`` float32 points of ``part`` seen in ``samples``, in its unit box (part frame / extents).
+
+    The part's labelled points of every sample are pooled (evenly strided down to ``max_points``).
+    Sensor noise throws points of thin parts well outside their box in unit-box coordinates: points
+    beyond 0.75 of the box on any axis are dropped as outliers, the rest clipped onto the box
+    ``[-0.5, 0.5]^3``. ``(0, 3)`` when the part is never seen."""
+    pooled = []
+    for s in samples:  # one transform per sample; vectorised over its points
+        pts = np.asarray(s["points"], dtype=np.float64)[np.asarray(s["part_labels"]) == part]
+        if len(pts):
+            T = np.asarray(s["cam_from_part"], dtype=np.float64)[part]
+            size = np.asarray(s["size_m"], dtype=np.float64)[part]
+            q = ((pts - T[:3, 3]) @ T[:3, :3]) / size
+            pooled.append(np.clip(q[np.abs(q).max(1) <= 0.75], -0.5, 0.5))
+    allp = np.concatenate(pooled) if pooled else np.zeros((0, 3))
+    if len(allp) == 0:
+        return np.zeros((0, 3), dtype=np.float32)
+    if len(allp) > max_points:
+        allp = allp[np.linspace(0, len(allp) - 1, max_points).round().astype(np.int64)]
+    return allp.astype(np.float32)
+
+
+def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structure: Mapping[str, Any],
+                   max_samples: int = 2000, template_samples: int = 400) -> CategoryPriors:
+    """Measure a category's :class:`CategoryPriors` on (up to ``max_samples`` evenly spaced) training samples.
+
+    Args:
+        samples: an indexable sequence of sample dicts (:mod:`ucope.data.sample` fields: ``points``,
+            ``part_labels``, ``cam_from_part``, ``size_m``, ``joint_axis``, ``joint_state``).
+        category: the category's name.
+        structure: the data set's declared structure (:func:`structure_from_dict`).
+        template_samples: samples (evenly spaced) whose points make the shape templates.
+
+    The statistics: vote range 1.1 x the largest half box diagonal, mean size = geometric mean, input
+    scale = mean cloud radius, prismatic zero offsets and part placements at the true poses, joint
+    limits = the declared limits widened to every state seen. Raises :class:`InputError` on an empty
+    data set or samples that disagree with the structure.
+    """
+    from .geometry.kinematics import prismatic_zero_offset
+
+    part_decl, joint_decl = structure_from_dict(structure)
+    K, J = len(part_decl), len(joint_decl)
+    n = len(samples)
+    if n == 0:
+        raise InputError("cannot measure category priors on an empty data set")
+    idx = np.unique(np.linspace(0, n - 1, min(n, int(max_samples))).round().astype(np.int64))
+    picked = [samples[int(i)] for i in idx]
+    size = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
+    if size.shape[1:] != (K, 3):
+        raise InputError(f"samples have {size.shape[1]} parts, the structure declares {K}")
+    if np.any(size <= 0) or not np.all(np.isfinite(size)):
+        raise InputError("training samples hold a non-positive or non-finite part size")
+    radii = [float(np.linalg.norm(p - p.mean(0), axis=1).max()) for p in (np.asarray(s["points"], np.float64) for s in picked)]
+    vote = 1.1 * 0.5 * np.linalg.norm(size, axis=-1).max(0)
+    mean = np.exp(np.log(size).mean(0))
+    parts = tuple(PartPrior(name=nm, symmetry=sym, vote_range_m=float(vote[k]), mean_size_m=tuple(mean[k]))
+                  for k, (nm, sym) in enumerate(part_decl))
+    joints = []
+    if J:
+        T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
+        U = np.stack([np.asarray(s["joint_axis"], np.float64).reshape(J, 3) for s in picked])
+        Q = np.stack([np.asarray(s["joint_state"], np.float64).reshape(J) for s in picked])
+        for j, jd in enumerate(joint_decl):  # a handful of joints; vectorised over samples
+            p, c = jd["parent"], jd["child"]
+            zero = 0.0
+            if jd["type"] == JointType.PRISMATIC:
+                zero = prismatic_zero_offset(T[:, p], T[:, c], U[:, j], size[:, p], size[:, c], Q[:, j])
+            cip, pic = placement_offsets(T, size, p, c)
+            lo, hi = jd["limits"]
+            lo = None if lo is None else min(lo, float(Q[:, j].min()))
+            hi = None if hi is None else max(hi, float(Q[:, j].max()))
+            joints.append(JointPrior(type=jd["type"], parent=p, child=c, axis_in_parent=tuple(jd["axis_in_parent"]),
+                                     limits=(lo, hi), zero_offset_m=zero, child_in_parent=tuple(cip.mean(0)),
+                                     parent_in_child=tuple(pic.mean(0))))
+    t_idx = np.unique(np.linspace(0, n - 1, min(n, int(template_samples))).round().astype(np.int64))
+    t_samples = [samples[int(i)] for i in t_idx]
+    templates = tuple(shape_template_points(t_samples, k) for k in range(K))
+    return CategoryPriors(category=category, parts=parts, joints=tuple(joints), norm_scale_m=float(np.mean(radii)),
+                          num_samples=len(idx), shape_templates=templates)

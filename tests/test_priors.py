@@ -1,0 +1,100 @@
+"""Category priors: validation, JSON round trip, measurement from samples."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from ucope.data.generate import GenerateConfig, make_sample
+from ucope.errors import InputError
+from ucope.objects.categories import make_instance
+from ucope.priors import CategoryPriors, JointPrior, PartPrior, measure_priors, placement_offsets, structure_from_dict
+from ucope.vocab import JointType
+
+
+def _samples(category, n=10, split="train"):
+    cfg = GenerateConfig(category=category, split=split, num=n, max_points=800, views_per_instance=2)
+    return [make_sample(cfg, i) for i in range(n)]
+
+
+def _structure(category):
+    return make_instance(category, "train", 0).structure()
+
+
+def test_measured_priors_bound_the_vote_parameters_and_round_trip():
+    samples = _samples("laptop")
+    pri = measure_priors(samples, "laptop", _structure("laptop"))
+    for s in samples:
+        for k in range(2):
+            pts = s["points"][s["part_labels"] == k]
+            if len(pts):
+                assert np.linalg.norm(pts - s["cam_from_part"][k][:3, 3], axis=1).max() <= pri.parts[k].vote_range_m
+    assert 0.05 < pri.norm_scale_m < 0.5
+    assert math.isclose(pri.parts[0].mean_size_m[0], pri.parts[1].mean_size_m[0], rel_tol=1e-6)  # lid as wide as the base
+    (j,) = pri.joints
+    assert j.type == JointType.REVOLUTE and j.limits == (0.35, 2.6) and j.zero_offset_m == 0.0
+    # the lid sits above the base (+y in the base frame), the base below the lid
+    assert j.child_in_parent[1] > 0.1 and j.parent_in_child[1] < 0.0
+    for k, t in enumerate(pri.shape_templates):  # the templates fill the unit box
+        assert t.dtype == np.float32 and len(t) > 100 and np.abs(t).max() <= 0.5 and np.ptp(t, axis=0).min() > 0.5
+    back = CategoryPriors.from_dict(json.loads(json.dumps(pri.to_dict())), pri.tensors())
+    assert back == pri and all(np.array_equal(a, b) for a, b in zip(back.shape_templates, pri.shape_templates))
+
+
+def test_prismatic_zero_offsets_and_limits_widened_to_the_states_seen():
+    samples = _samples("drawer", 12)
+    pri = measure_priors(samples, "drawer", _structure("drawer"))
+    assert [j.type for j in pri.joints] == [JointType.PRISMATIC] * 3
+    assert all(0.0 < j.zero_offset_m < 0.05 for j in pri.joints)
+    assert all(j.axis_in_parent == (0.0, 0.0, 1.0) for j in pri.joints)
+    top = max(float(np.max(s["joint_state"])) for s in samples)
+    assert max(j.limits[1] for j in pri.joints) >= top - 1e-12  # instance 0's limits widened by what was seen
+    rigid = measure_priors(_samples("mug", 3), "mug", _structure("mug"))
+    assert rigid.joints == () and rigid.num_parts == 1
+
+
+def test_placement_offsets_match_a_direct_computation(rng):
+    from ucope.geometry.transforms import make_transform, random_rotation
+
+    T = np.stack([np.stack([make_transform(random_rotation(rng), rng.normal(size=3)) for _ in range(2)]) for _ in range(5)])
+    S = rng.uniform(0.1, 1.0, (5, 2, 3))
+    cip, pic = placement_offsets(T, S, 0, 1)
+    for s in range(5):
+        np.testing.assert_allclose(cip[s], T[s, 0, :3, :3].T @ (T[s, 1, :3, 3] - T[s, 0, :3, 3]) / np.linalg.norm(S[s, 0]))
+        np.testing.assert_allclose(pic[s], T[s, 1, :3, :3].T @ (T[s, 0, :3, 3] - T[s, 1, :3, 3]) / np.linalg.norm(S[s, 1]))
+
+
+def test_bad_priors_and_structures_are_refused():
+    part = PartPrior(name="a", symmetry="none", vote_range_m=0.2, mean_size_m=(0.1, 0.1, 0.1))
+    with pytest.raises(InputError, match="symmetry"):
+        PartPrior(name="a", symmetry="x", vote_range_m=0.2, mean_size_m=(0.1, 0.1, 0.1))
+    with pytest.raises(InputError, match="positive"):
+        PartPrior(name="a", symmetry="none", vote_range_m=0.2, mean_size_m=(0.1, 0.0, 0.1))
+    with pytest.raises(InputError, match="joint type"):
+        JointPrior(type="ball", parent=0, child=1, axis_in_parent=(1, 0, 0))
+    with pytest.raises(InputError, match="fixed"):
+        JointPrior(type="fixed", parent=0, child=1, axis_in_parent=(1, 0, 0))
+    with pytest.raises(InputError, match="non-zero"):
+        JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(0, 0, 0))
+    with pytest.raises(InputError, match="lower <= upper"):
+        JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(1, 0, 0), limits=(1.0, 0.0))
+    joint = JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(0, 2, 0), limits=(None, None))
+    assert joint.axis_in_parent == (0.0, 1.0, 0.0) and joint.limits == (None, None)
+    with pytest.raises(InputError, match="1 joints"):
+        CategoryPriors(category="c", parts=(part, PartPrior("b", "none", 0.2, (0.1, 0.1, 0.1))), joints=())
+    with pytest.raises(InputError, match="unique"):
+        CategoryPriors(category="c", parts=(part, part), joints=(joint,))
+    with pytest.raises(InputError, match="tree"):
+        CategoryPriors(category="c", parts=(part, PartPrior("b", "none", 0.2, (0.1, 0.1, 0.1))),
+                       joints=(JointPrior(type="revolute", parent=1, child=1, axis_in_parent=(1, 0, 0)),))
+    with pytest.raises(InputError, match="malformed category priors"):
+        CategoryPriors.from_dict({"category": "c", "parts": []})
+    with pytest.raises(InputError, match="malformed category structure"):
+        structure_from_dict({"parts": [{"name": "a"}], "joints": []})
+    with pytest.raises(InputError, match="needs 1"):
+        structure_from_dict({"parts": [{"name": "a", "symmetry": "none"}, {"name": "b", "symmetry": "none"}], "joints": []})
+    with pytest.raises(InputError, match="empty"):
+        measure_priors([], "laptop", _structure("laptop"))
+    with pytest.raises(InputError, match="3 parts"):
+        measure_priors(_samples("eyeglasses", 2), "laptop", _structure("laptop"))
