@@ -5,7 +5,9 @@ Layers, each importing only from the ones before it (docs/architecture.md)::
     errors, versions, vocab, fileio, plotting -> geometry -> priors
         -> objects -> render -> data -> model -> voting -> estimation -> eval -> cli
 
-``ucope.Estimator`` and ``ucope.PoseResult`` are imported on first use, so ``import ucope`` stays light.
+``ucope.Estimator``, ``ucope.PoseResult`` and the sub-packages (``ucope.data``, ``ucope.eval``...) are
+imported on first use, so ``import ucope`` stays light and ``ucope.data.load_dataset`` works after a
+plain ``import ucope``.
 """
 
 from __future__ import annotations
@@ -15,7 +17,15 @@ from .versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 __all__ = ["__version__", "CONVENTIONS_VERSION", "GENERATOR_VERSION", "Estimator", "PoseResult"]
 
 
+_SUBMODULES = ("cli", "data", "errors", "estimation", "eval", "fileio", "geometry", "model", "objects", "plotting", "priors",
+               "render", "versions", "vocab", "voting")
+
+
 def __getattr__(name: str):
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f"{__name__}.{name}")
     if name == "Estimator":
         from .estimation.estimator import Estimator
 

@@ -39,6 +39,7 @@ __all__ = [
     "measure_priors",
     "placement_offsets",
     "shape_template_points",
+    "cloud_radius",
 ]
 
 TEMPLATE_POINTS = 4096
@@ -159,6 +160,9 @@ class CategoryPriors:
         norm_scale_m: the length the encoder's input is divided by (mean cloud radius of the training
             views about their centroid).
         num_samples: how many training samples the statistics were measured on.
+        radius_range_m: ``(smallest, largest)`` :func:`cloud_radius` of the training views: the sizes
+            of cloud the model knows (a cloud far outside it is in other units, or another object);
+            ``None`` when not measured.
         shape_templates: per part, ``(P_k, 3)`` float32 surface points in the part's unit box (part frame
             divided by the box extents), seen over the category's instances; ``()`` when not measured
             (the rigid shape-flip check is then skipped).
@@ -169,6 +173,7 @@ class CategoryPriors:
     joints: tuple[JointPrior, ...] = ()
     norm_scale_m: float = 1.0
     num_samples: int = 0
+    radius_range_m: tuple[float, float] | None = None
     shape_templates: tuple[np.ndarray, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
@@ -190,6 +195,11 @@ class CategoryPriors:
                 raise InputError(f"category {self.category!r}: the joints must form a tree rooted at part 0, parents before children")
             placed.add(j.child)
         object.__setattr__(self, "norm_scale_m", float(_finite(self.norm_scale_m, "norm_scale_m", True)))
+        if self.radius_range_m is not None:
+            lo, hi = (float(v) for v in _finite(self.radius_range_m, "radius_range_m", True).reshape(2))
+            if lo > hi:
+                raise InputError(f"radius_range_m must be (smallest, largest), got {self.radius_range_m}")
+            object.__setattr__(self, "radius_range_m", (lo, hi))
         templates = tuple(np.ascontiguousarray(t, dtype=np.float32).reshape(-1, 3) for t in self.shape_templates)
         if templates and len(templates) != K:
             raise InputError(f"category {self.category!r}: {len(templates)} shape templates for {K} parts")
@@ -235,7 +245,8 @@ class CategoryPriors:
         """The JSON form (everything but the shape templates: :meth:`tensors`)."""
         return {"category": self.category, "parts": [p.to_dict() for p in self.parts],
                 "joints": [j.to_dict() for j in self.joints], "norm_scale_m": self.norm_scale_m,
-                "num_samples": int(self.num_samples)}
+                "num_samples": int(self.num_samples),
+                "radius_range_m": None if self.radius_range_m is None else list(self.radius_range_m)}
 
     def tensors(self) -> dict[str, np.ndarray]:
         """The shape templates as named float32 arrays (``shape_template.<k>``), stored beside the weights."""
@@ -254,8 +265,10 @@ class CategoryPriors:
             templates: tuple = ()
             if tensors:
                 templates = tuple(np.asarray(tensors[f"shape_template.{k}"]) for k in range(len(parts)))
+            rr = d.get("radius_range_m")
             return cls(category=str(d["category"]), parts=parts, joints=joints, norm_scale_m=d["norm_scale_m"],
-                       num_samples=int(d.get("num_samples", 0)), shape_templates=templates)
+                       num_samples=int(d.get("num_samples", 0)), radius_range_m=None if rr is None else tuple(rr),
+                       shape_templates=templates)
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"malformed category priors: {type(e).__name__}: {e}") from None
 
@@ -282,6 +295,13 @@ def structure_from_dict(d: Mapping[str, Any]) -> tuple[list[tuple[str, str]], li
     if len(joints) != len(parts) - 1:
         raise InputError(f"the structure declares {len(parts)} parts and {len(joints)} joints; it needs {len(parts) - 1}")
     return parts, joints
+
+
+def cloud_radius(points: np.ndarray) -> float:
+    """A robust size of a cloud ``(N, 3)``: the 90th percentile of the points' distances to their
+    median point (metres). Outliers and stray background points up to 10 % barely move it."""
+    p = np.asarray(points, dtype=np.float64)
+    return float(np.percentile(np.linalg.norm(p - np.median(p, axis=0), axis=1), 90.0))
 
 
 def placement_offsets(cam_from_part: np.ndarray, size_m: np.ndarray, parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
@@ -337,7 +357,7 @@ def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structur
         template_samples: samples (evenly spaced) whose points make the shape templates.
 
     The statistics: vote range 1.1 x the largest half box diagonal, mean size = geometric mean, input
-    scale = mean cloud radius, prismatic zero offsets and part placements at the true poses, joint
+    scale = mean cloud radius, the range of :func:`cloud_radius`, prismatic zero offsets and part placements at the true poses, joint
     limits = the declared limits widened to every state seen. Raises :class:`InputError` on an empty
     data set or samples that disagree with the structure.
     """
@@ -355,7 +375,9 @@ def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structur
         raise InputError(f"samples have {size.shape[1]} parts, the structure declares {K}")
     if np.any(size <= 0) or not np.all(np.isfinite(size)):
         raise InputError("training samples hold a non-positive or non-finite part size")
-    radii = [float(np.linalg.norm(p - p.mean(0), axis=1).max()) for p in (np.asarray(s["points"], np.float64) for s in picked)]
+    clouds = [np.asarray(s["points"], np.float64) for s in picked]
+    radii = [float(np.linalg.norm(p - p.mean(0), axis=1).max()) for p in clouds]
+    robust = [cloud_radius(p) for p in clouds]
     vote = 1.1 * 0.5 * np.linalg.norm(size, axis=-1).max(0)
     mean = np.exp(np.log(size).mean(0))
     parts = tuple(PartPrior(name=nm, symmetry=sym, vote_range_m=float(vote[k]), mean_size_m=tuple(mean[k]))
@@ -381,4 +403,4 @@ def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structur
     t_samples = [samples[int(i)] for i in t_idx]
     templates = tuple(shape_template_points(t_samples, k) for k in range(K))
     return CategoryPriors(category=category, parts=parts, joints=tuple(joints), norm_scale_m=float(np.mean(radii)),
-                          num_samples=len(idx), shape_templates=templates)
+                          num_samples=len(idx), radius_range_m=(min(robust), max(robust)), shape_templates=templates)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 import time
@@ -161,6 +162,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         epoch_size=args.epoch_size, val_samples=args.val_samples, workers=args.workers, log_every=args.log_every,
         val_every=args.val_every, checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
         threads=args.threads, device=args.device, resume=args.resume, init_from=args.init, progress=not args.quiet,
+        allow_changed_settings=args.allow_changed_settings,
     )
     card = train(tc)
     if card:
@@ -174,7 +176,8 @@ def _estimator(args: argparse.Namespace):
     from ..estimation.estimator import Estimator
 
     return Estimator.load(args.model, num_pairs=args.pairs, awareness=not args.no_awareness, refine=args.refine, seed=args.seed,
-                          resolve_flips=not args.keep_flips)
+                          resolve_flips=not args.keep_flips, device=args.device,
+                          score_filter=False if args.no_score_filter else None, segment_pairs=False if args.pairs_from_cloud else None)
 
 
 def _expand_inputs(spec: str) -> list[Path]:
@@ -205,74 +208,104 @@ def format_errors(result, errors: dict) -> str:
     return "\n".join(lines)
 
 
-def cmd_predict(args: argparse.Namespace) -> int:
-    from ..fileio import atomic_write_json
+def _predict_jobs(args: argparse.Namespace) -> list:
+    """``(name, load)`` per input, ``load() -> (points, normals, sample_or_None, units)``: files are read
+    inside their own job, so that one bad file fails alone."""
     from ..data.io import read_depth_png, read_intrinsics, read_point_cloud
 
-    est = _estimator(args)
-    jobs = []  # (name, points, normals, sample)
     if args.depth is not None:
         from ..estimation.inputs import rgbd_points
 
         if args.intrinsics is None:
             raise UcopeError("--depth needs --intrinsics K.json")
-        mask = read_depth_png(args.mask) if args.mask is not None else None
-        pts = rgbd_points(read_depth_png(args.depth), read_intrinsics(args.intrinsics), mask=mask, box=args.box,
-                          depth_scale=args.depth_scale, mask_label=args.mask_label)
-        jobs_done = [(Path(args.depth).stem, est.predict(pts), pts, None)]
-    else:
-        jobs_done = []
-        if args.data is not None:
-            from ..data.dataset import load_dataset
 
-            ds = load_dataset(args.data)
-            for i in args.index or [0]:
-                if not -len(ds) <= i < len(ds):
-                    raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
-                s = ds[i]
-                jobs.append((f"{ds.category}_{s['index']:06d}", s["points"], s["normals"], s))
-        elif args.input is not None:
-            for f in _expand_inputs(args.input):
-                pts, nrm = read_point_cloud(f)
-                jobs.append((f.stem, pts, nrm, None))
-        else:
-            raise UcopeError("give --input CLOUD (or a folder / glob), --depth D.png --intrinsics K.json, or --data DIR --index I")
-        bar = None
-        if len(jobs) > 1 and not args.quiet:
+        def load_rgbd():
+            mask = read_depth_png(args.mask) if args.mask is not None else None
+            pts = rgbd_points(read_depth_png(args.depth), read_intrinsics(args.intrinsics), mask=mask, box=args.box,
+                              depth_scale=args.depth_scale, mask_label=args.mask_label)
+            return pts, None, None, "m"
+
+        return [(Path(args.depth).stem, load_rgbd)]
+    if args.data is not None:
+        from ..data.dataset import load_dataset
+
+        ds = load_dataset(args.data)
+        for i in args.index or [0]:
+            if not -len(ds) <= i < len(ds):
+                raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
+        return [(f"{ds.category}_{i % len(ds):06d}", lambda i=i: (ds[i]["points"], ds[i]["normals"], ds[i], "m")) for i in args.index or [0]]
+    if args.input is not None:
+        return [(f.stem, lambda f=f: (*read_point_cloud(f), None, args.units)) for f in _expand_inputs(args.input)]
+    raise UcopeError("give --input CLOUD (or a folder / glob), --depth D.png --intrinsics K.json, or --data DIR --index I")
+
+
+def _result_path(out: str, name: str, many: bool) -> Path:
+    """Where a result goes: ``OUT/NAME.json`` when there are several results or ``--out`` names a folder
+    (it exists as one, or ends with a slash), else ``OUT`` itself."""
+    folder = many or out.endswith(("/", "\\")) or Path(out).is_dir()
+    return Path(out) / f"{name}.json" if folder else Path(out)
+
+
+def cmd_predict(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..estimation.inputs import UNITS
+    from ..fileio import atomic_write_json
+
+    if args.vis is not None:
+        from ..plotting import pyplot
+
+        pyplot()  # a missing matplotlib is said before any work
+    est = _estimator(args)
+    jobs = _predict_jobs(args)
+    many = len(jobs) > 1
+    bar = None
+    if many and not args.quiet:
+        try:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=len(jobs), desc="predict", unit="cloud", file=sys.stderr)
+        except ImportError:  # pragma: no cover - tqdm is an optional extra
+            bar = None
+    vis_items, failed = [], []
+    for name, load in jobs:
+        try:
+            pts, nrm, s, units = load()
+            res = est.predict(pts, None if args.ignore_normals else nrm, units=units)
+            d = res.to_dict()
+            if s is not None:
+                from ..eval.evaluate import sample_errors
+
+                d["errors"] = sample_errors(res, s)
+            path = _result_path(args.out, name, many)
             try:
-                from tqdm.auto import tqdm
-
-                bar = tqdm(total=len(jobs), desc="predict", unit="cloud", file=sys.stderr)
-            except ImportError:  # pragma: no cover
-                bar = None
-        for name, pts, nrm, s in jobs:
-            res = est.predict(pts, nrm)
-            jobs_done.append((name, res, pts, s))
+                path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise UcopeError(f"cannot create the folder {path.parent}: {e.strerror or e}") from None
+            atomic_write_json(path, d)
+        except UcopeError as e:
+            failed.append(name)
+            print(f"ucope predict: {name}: error: {e}", file=sys.stderr)
+            continue
+        finally:
             if bar is not None:
                 bar.update(1)
-        if bar is not None:
-            bar.close()
-    many = len(jobs_done) > 1
-    out = Path(args.out)
-    vis_items = []
-    for name, res, pts, s in jobs_done:
-        path = out / f"{name}.json" if many else out
-        d = res.to_dict()
-        if s is not None:
-            from ..eval.evaluate import sample_errors
-
-            d["errors"] = sample_errors(res, s)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_json(path, d)
         t = res.timings_ms.get("total", 0.0)
         print(f"{name}: {len(res.parts)} part(s), {len(res.joints)} joint(s) in {t:.0f} ms -> {path}")
+        for w in res.warnings:
+            print(f"  warning: {w}")
         if s is not None:
             print(format_errors(res, d["errors"]))
-        vis_items.append((pts, res, s, name))
-    if args.vis is not None:
+        vis_items.append((np.asarray(pts, dtype=np.float64).reshape(-1, 3) * UNITS[units], res, s, name))
+    if bar is not None:
+        bar.close()
+    if args.vis is not None and vis_items:
         from ..estimation.draw import plot_results
 
         print(f"wrote {plot_results(vis_items, args.vis)}")
+    if failed:
+        print(f"ucope predict: {len(failed)} of {len(jobs)} input(s) failed: {', '.join(failed)}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -305,8 +338,13 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
                    help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
                         "eyeglasses, drawer, dishwasher and scissors models have it on)")
+    p.add_argument("--no-score-filter", action="store_true",
+                   help="every pair votes for its part, whatever its part score (ablation of the paper's eq. (10) alone)")
+    p.add_argument("--pairs-from-cloud", action="store_true",
+                   help="draw each part's pairs from the whole cloud, not from the points segmented as that part (ablation)")
     p.add_argument("--keep-flips", action="store_true", help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the subsampling and pair draws (>= 0)")
+    p.add_argument("--device", default="cpu", help="torch device of the network: cpu (default), cuda, cuda:1, mps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -379,7 +417,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--max-minutes", type=float, default=None, help="stop with a checkpoint and a model after this wall time")
     t.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     t.add_argument("--device", choices=["auto", "cpu", "cuda"], default="auto")
-    t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint (with the same settings)")
+    t.add_argument("--allow-changed-settings", action="store_true",
+                   help="with --resume: go on even though settings that change the model differ from the checkpoint's")
     t.add_argument("--init", default=None, metavar="MODEL",
                    help="fine-tune: start from this model's weights (a shipped model name such as laptop, a run folder "
                         "or a model .json) with a fresh optimiser; its network and category statistics are kept")
@@ -387,9 +427,14 @@ def build_parser() -> argparse.ArgumentParser:
     t.set_defaults(func=cmd_train)
 
     pr = sub.add_parser("predict", help="estimate part poses, joints and segmentation of objects",
-                        description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples.")
+                        description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples. "
+                                    "A cloud is ONE segmented object (not a whole scene) in the CAMERA frame (OpenCV axes: x right, "
+                                    "y down, z forward from the camera), in metres unless --units says otherwise. Results are in metres.")
     pr.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
-    pr.add_argument("--input", help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts), a folder or a glob (quote it)")
+    pr.add_argument("--input", help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts; organised clouds too), a folder or a "
+                                    "glob (quote it): one segmented object in the camera frame")
+    pr.add_argument("--units", choices=["m", "cm", "mm"], default="m", help="length unit of the --input clouds (default m)")
+    pr.add_argument("--ignore-normals", action="store_true", help="estimate normals even when the file holds some")
     pr.add_argument("--depth", help="depth PNG (16-bit; see --depth-scale)")
     pr.add_argument("--intrinsics", help="camera intrinsics JSON (fx, fy, cx, cy or K / cam_K)")
     pr.add_argument("--mask", help="object mask PNG (non-zero = object, or see --mask-label)")
@@ -398,7 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--depth-scale", type=float, default=1000.0, help="depth units per metre (default 1000: millimetres)")
     pr.add_argument("--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth")
     pr.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es) with --data (default 0)")
-    pr.add_argument("--out", required=True, help="result JSON (a folder when there are several inputs)")
+    pr.add_argument("--out", required=True, help="result JSON, or a folder (an existing one, or a path ending with /; always with several inputs)")
     pr.add_argument("--vis", default=None, help="also draw the estimates into this PNG")
     _estimator_options(pr)
     pr.set_defaults(func=cmd_predict)
@@ -441,6 +486,15 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        print(f"ucope {args.command}: error: out of memory (lower --pairs, or the size of the input)", file=sys.stderr)
+        return 2
+    except Exception as e:  # a bug of ours: one line, the traceback on request
+        if os.environ.get("UCOPE_DEBUG"):
+            raise
+        print(f"ucope {args.command}: internal error: {type(e).__name__}: {e} (please report it; UCOPE_DEBUG=1 shows the traceback)",
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

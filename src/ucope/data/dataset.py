@@ -11,9 +11,21 @@ import numpy as np
 from ..errors import DataError
 from ..render.camera import PinholeCamera
 from ..fileio import read_json
+from ..versions import CONVENTIONS_VERSION, DATA_FORMAT_VERSION, GENERATOR_VERSION
 from .shards import read_shard, shard_name
 
-__all__ = ["SyntheticDataset", "load_dataset"]
+__all__ = ["SyntheticDataset", "load_dataset", "check_versions"]
+
+
+def check_versions(meta: dict, where) -> None:
+    """Refuse a data set made by another generator, under other conventions or in another shard format,
+    naming both versions (:class:`DataError`)."""
+    for key, ours in (("format_version", DATA_FORMAT_VERSION), ("generator_version", GENERATOR_VERSION),
+                      ("conventions_version", CONVENTIONS_VERSION)):
+        theirs = meta.get(key)
+        if str(theirs) != str(ours):
+            raise DataError(f"{where}: the data set has {key.replace('_', ' ')} {theirs}, this ucope uses {ours}; "
+                            "generate it again with this ucope (or use the ucope that made it)")
 
 
 class SyntheticDataset(Sequence):
@@ -26,12 +38,20 @@ class SyntheticDataset(Sequence):
         if not self.root.is_dir():
             raise DataError(f"data set folder {self.root} does not exist")
         self.meta = read_json(self.root / "meta.json")
+        where = self.root / "meta.json"
+        if not isinstance(self.meta, dict):
+            raise DataError(f"{where} is not a ucope data set description (not a JSON object)")
+        check_versions(self.meta, where)
         try:
             self._num = int(self.meta["num"])
             self._shard_size = int(self.meta["shard_size"])
             self.category = str(self.meta["category"])
+            self._num_parts = int(self.meta["num_parts"])
         except (KeyError, ValueError, TypeError) as e:
-            raise DataError(f"{self.root / 'meta.json'} is not a ucope data set description ({e})") from None
+            raise DataError(f"{where} is not a ucope data set description ({type(e).__name__}: {e})") from None
+        if self._num <= 0 or self._shard_size <= 0 or self._num_parts <= 0:
+            raise DataError(f"{where}: num ({self._num}), shard_size ({self._shard_size}) and num_parts ({self._num_parts}) "
+                            "must be positive")
         n_shards = -(-self._num // self._shard_size)
         missing = [s for s in range(n_shards) if not (self.root / shard_name(s)).exists()]
         if missing:
@@ -48,7 +68,7 @@ class SyntheticDataset(Sequence):
 
     @property
     def num_parts(self) -> int:
-        return int(self.meta["num_parts"])
+        return self._num_parts
 
     def __len__(self) -> int:
         return self._num
@@ -58,10 +78,14 @@ class SyntheticDataset(Sequence):
             self._cache.move_to_end(s)
             return self._cache[s]
         path = self.root / shard_name(s)
-        samples = read_shard(path)
-        expect = min(self._num, (s + 1) * self._shard_size) - s * self._shard_size
+        lo = s * self._shard_size
+        expect = min(self._num, lo + self._shard_size) - lo
+        samples = read_shard(path, num_parts=self._num_parts, category=self.category)
         if len(samples) != expect:
             raise DataError(f"shard {path} holds {len(samples)} samples, meta.json says {expect}")
+        got = [int(x["index"]) for x in samples]
+        if got != list(range(lo, lo + expect)):
+            raise DataError(f"shard {path} holds samples {got[0]}..{got[-1]}, meta.json puts {lo}..{lo + expect - 1} there")
         self._cache[s] = samples
         while len(self._cache) > self._cache_size:
             self._cache.popitem(last=False)

@@ -58,6 +58,10 @@ class GenerateConfig:
                 raise InputError(f"{name} must be a positive integer, got {v!r}")
         if self.max_points < 16:
             raise InputError(f"max_points must be at least 16, got {self.max_points}")
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
+            raise InputError(f"seed must be an integer >= 0, got {self.seed!r}")
+        if not isinstance(self.normal_k, (int, np.integer)) or self.normal_k < 3:
+            raise InputError(f"normal_k must be an integer >= 3, got {self.normal_k!r}")
 
     @property
     def num_shards(self) -> int:
@@ -138,8 +142,25 @@ def _generate_shard(cfg: GenerateConfig, out: Path, shard: int) -> int:
 
 
 def _worker(args) -> int:
-    cfg, out, shard = args
+    cfg, out, shard, parent = args
+    if os.getppid() != parent:  # the parent died: leave no shard behind it
+        os._exit(1)
     return _generate_shard(cfg, out, shard)
+
+
+def _worker_init(parent: int) -> None:
+    """Make a worker die with its parent: on Linux the kernel sends SIGTERM when the parent exits
+    (``PR_SET_PDEATHSIG``); everywhere, :func:`_worker` checks the parent before each shard."""
+    import signal
+
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the check in _worker remains
+        pass
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
@@ -154,8 +175,13 @@ def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
     except OSError as e:
         raise DataError(f"cannot write to output folder {out}: {e.strerror or e}") from None
     meta_path = out / "meta.json"
+    if not meta_path.exists() and any(out.glob("shard_*.npz")):
+        raise DataError(f"{out} holds shards but no meta.json: it is not a data set this command can resume (its settings are "
+                        "unknown); remove the shards or use another --out folder")
     if meta_path.exists():
         old = read_json(meta_path)
+        if not isinstance(old, dict):
+            raise DataError(f"{meta_path} is not a ucope data set description")
         new = json.loads(json.dumps(cfg.settings()))  # tuples -> lists, as stored
         diff = sorted(k for k in new if old.get(k) != new[k])
         if diff:
@@ -217,8 +243,9 @@ def generate_dataset(
             import multiprocessing as mp
 
             # spawn: workers never inherit a parent's ray-tracing thread pools
-            with mp.get_context("spawn").Pool(min(workers, len(todo))) as pool:
-                for n in pool.imap_unordered(_worker, [(cfg, out, s) for s in todo]):
+            parent = os.getpid()
+            with mp.get_context("spawn").Pool(min(workers, len(todo)), initializer=_worker_init, initargs=(parent,)) as pool:
+                for n in pool.imap_unordered(_worker, [(cfg, out, s, parent) for s in todo]):
                     if bar is not None:
                         bar.update(n)
     finally:

@@ -48,9 +48,17 @@ def write_shard(path: str | os.PathLike, samples: list[dict]) -> None:
     atomic_write_bytes(path, buf.getvalue())
 
 
-def read_shard(path: str | os.PathLike) -> list[dict]:
-    """Read a shard back into a list of sample dicts; a truncated or corrupt file raises
-    :class:`DataError` naming the file."""
+def read_shard(path: str | os.PathLike, num_parts: int | None = None, category: str | None = None) -> list[dict]:
+    """Read a shard back into a list of sample dicts.
+
+    Args:
+        num_parts, category: what ``meta.json`` says (checked when given).
+
+    Raises:
+        DataError: naming the file: truncated or corrupt, another format version, inconsistent
+            offsets or array lengths, labels outside ``[0, num_parts)``, non-finite points, poses or
+            sizes, samples of another category.
+    """
     path = Path(path)
     try:
         with np.load(path, allow_pickle=False) as z:
@@ -64,6 +72,7 @@ def read_shard(path: str | os.PathLike) -> list[dict]:
             raise DataError(f"shard {path} has format version {int(data['format_version'])}, this ucope reads {FORMAT_VERSION}")
         off = data["offsets"]
         n = len(off) - 1
+        _check_shard(path, data, n, num_parts, category)
         out = []
         for i in range(n):
             a, b = int(off[i]), int(off[i + 1])
@@ -84,3 +93,32 @@ def read_shard(path: str | os.PathLike) -> list[dict]:
         raise DataError(f"shard {path} lacks array {e}; it is corrupt or not a ucope shard") from None
     except (IndexError, ValueError, TypeError) as e:
         raise DataError(f"shard {path} is inconsistent ({e}); it is corrupt or not a ucope shard") from None
+
+
+def _check_shard(path, data: dict, n: int, num_parts: int | None, category: str | None) -> None:
+    """The structural checks of :func:`read_shard` (vectorised over the shard)."""
+    off = data["offsets"]
+    P = len(data["points"])
+    if n < 1 or off.ndim != 1 or off[0] != 0 or off[-1] != P or np.any(np.diff(off) < 0):
+        raise DataError(f"shard {path} has inconsistent offsets (first {off[:1].tolist()}, last {off[-1:].tolist()}, {P} points); it is corrupt")
+    for k in ("normals", "part_labels"):
+        if len(data[k]) != P:
+            raise DataError(f"shard {path}: {k} has {len(data[k])} rows for {P} points; it is corrupt")
+    for k in _STACK_FIELDS + ("index", "instance_id", "category"):
+        if len(data[k]) != n:
+            raise DataError(f"shard {path}: {k} has {len(data[k])} entries for {n} samples; it is corrupt")
+    if not np.all(np.isfinite(data["points"])):
+        raise DataError(f"shard {path} holds non-finite points; it is corrupt")
+    for k in ("cam_from_part", "size_m", "joint_axis", "joint_state", "cam_from_object"):
+        if not np.all(np.isfinite(data[k])):
+            raise DataError(f"shard {path} holds non-finite {k}; it is corrupt")
+    if np.any(data["size_m"] <= 0):
+        raise DataError(f"shard {path} holds non-positive part sizes; it is corrupt")
+    K = data["size_m"].shape[1] if data["size_m"].ndim == 3 else None
+    if num_parts is not None and K != num_parts:
+        raise DataError(f"shard {path} holds samples of {K} parts, meta.json says {num_parts}")
+    labels = data["part_labels"]
+    if K is not None and len(labels) and (int(labels.min()) < 0 or int(labels.max()) >= K):
+        raise DataError(f"shard {path} holds part labels {int(labels.min())}..{int(labels.max())}, outside 0..{K - 1}; it is corrupt")
+    if category is not None and np.any(data["category"] != category):
+        raise DataError(f"shard {path} holds {sorted(set(map(str, data['category'])))} samples, meta.json says {category!r}")

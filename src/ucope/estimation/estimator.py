@@ -31,6 +31,7 @@ import numpy as np
 import torch
 
 from ..errors import InputError
+from ..priors import cloud_radius
 from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
 from ..model.checkpoint import find_model, load_model
@@ -38,10 +39,33 @@ from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
-from .inputs import NORMAL_K, label_points, prepare_points, rgbd_points
+from .inputs import MIN_POINTS, NORMAL_K, label_points, prepare_points, rgbd_points
 from .result import JointEstimate, PartEstimate, PoseResult
 
-__all__ = ["Estimator"]
+__all__ = ["Estimator", "MAX_PAIRS", "EXTENT_REFUSE", "EXTENT_WARN"]
+
+MAX_PAIRS = 1_000_000
+"""The most point pairs per object (the pair encoder holds ``num_pairs x hidden`` floats)."""
+
+EXTENT_WARN = 1.5
+"""A cloud whose size (:func:`ucope.priors.cloud_radius`) is more than this factor outside the model's
+training range gets a warning."""
+
+EXTENT_REFUSE = 20.0
+"""... and more than this factor outside it is refused (another unit, or not this kind of object)."""
+
+
+def _device(device) -> torch.device:
+    """``device`` as a usable torch device, or an InputError naming the problem."""
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, TypeError) as e:
+        raise InputError(f"device {device!r} is not a torch device ({e})") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise InputError(f"device {device!r}: no CUDA device is available here")
+    if dev.type not in ("cpu", "cuda", "mps"):
+        raise InputError(f"device {device!r}: use cpu, cuda or mps")
+    return dev
 
 
 class Estimator:
@@ -66,19 +90,30 @@ class Estimator:
             joint allows (:func:`ucope.voting.resolve_joint_flips`) and rigid objects whose rotation is
             a half turn away from what their shape fits (:func:`ucope.voting.resolve_shape_flips`); on
             by default, measured in docs/voting.md.
-        seed: seed of the subsampling and pair draws.
-        device: torch device of the network.
+        seed: seed of the subsampling and pair draws (an integer >= 0).
+        device: torch device of the network (``"cpu"``, ``"cuda"``, ``"cuda:1"``...).
         max_input_points: clouds above this many points are subsampled uniformly first (4096: the
-            density the models were trained on).
+            density the models were trained on; at least :data:`ucope.estimation.inputs.MIN_POINTS`).
         options: :class:`ucope.voting.VotingOptions`.
+
+    Raises:
+        InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
+            seed, an unknown or unavailable device...), naming it.
     """
 
     def __init__(self, model: UCOPENet, name: str = "", num_pairs: int = 20000, awareness: bool = True,
                  refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096,
                  resolve_flips: bool = True, score_filter: bool | None = None, segment_pairs: bool | None = None,
                  options: VotingOptions | None = None):
-        if int(num_pairs) < 10:
-            raise InputError(f"num_pairs must be at least 10, got {num_pairs}")
+        if not isinstance(model, UCOPENet):
+            raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
+        if not (isinstance(num_pairs, (int, np.integer)) and 10 <= num_pairs <= MAX_PAIRS):
+            raise InputError(f"num_pairs must be an integer from 10 to {MAX_PAIRS}, got {num_pairs!r}")
+        if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
+            raise InputError(f"seed must be an integer >= 0, got {seed!r}")
+        if not (isinstance(max_input_points, (int, np.integer)) and max_input_points >= MIN_POINTS):
+            raise InputError(f"max_input_points must be an integer >= {MIN_POINTS}, got {max_input_points!r}")
+        device = _device(device)
         self.model = model.to(device).eval()
         self.cfg = model.cfg
         self.priors = model.cfg.priors
@@ -103,6 +138,8 @@ class Estimator:
 
         ``refine=None`` takes the model's own default (``info.defaults.refine`` of its JSON, set when it
         was packaged where the refinement measured better). Other keyword arguments: as the constructor."""
+        if not isinstance(model, (str, os.PathLike)) or not str(model):
+            raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
         net, meta = load_model(path)
         if refine is None:
@@ -115,18 +152,29 @@ class Estimator:
         return self.cfg.category
 
     # ---------------------------------------------------------------------------------- prediction
-    def predict(self, points, normals=None) -> PoseResult:
+    def predict(self, points, normals=None, units: str = "m") -> PoseResult:
         """Estimate the pose of the object whose (segmented) cloud ``points`` is.
 
         Args:
-            points: ``(N, 3)`` the object's points in the camera frame (OpenCV axes), metres.
-            normals: optional ``(N, 3)`` unit normals (any sign); estimated when ``None``.
+            points: ``(N, 3)`` or organised ``(H, W, 3)`` (NaN = no measurement): the object's points in
+                the camera frame (OpenCV axes: x right, y down, z forward), in ``units``.
+            normals: optional normals of the points' shape (any sign and length: normalised and turned
+                to face the camera); estimated when ``None``.
+            units: ``"m"`` (default), ``"cm"`` or ``"mm"``; results are always in metres.
 
         Returns:
-            a :class:`PoseResult` (``part_labels`` has one entry per input point, -1 for dropped ones).
+            a :class:`PoseResult`: ``part_labels`` has one entry per input point (an organised cloud
+            flattened row by row), -1 for dropped ones; ``warnings`` lists what looked wrong.
+
+        Raises:
+            InputError: a cloud that cannot be one object in the camera frame (see
+                :func:`ucope.estimation.inputs.prepare_points`), or whose size is more than
+                :data:`EXTENT_REFUSE` times outside the model's training range (with a hint at the units).
         """
         t0 = time.perf_counter()
-        pts, nrm, raw, finite = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False)
+        prep = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False, units=units)
+        pts, nrm, raw, finite = prep.points, prep.normals, prep.raw, prep.finite
+        warnings = list(prep.warnings) + self._extent_warnings(pts, units)
         cfg = self.cfg
         rng = np.random.default_rng(np.random.SeedSequence(entropy=self.seed, spawn_key=(2,)))
         sub = random_subset(len(pts), cfg.num_points, rng)
@@ -170,7 +218,30 @@ class Estimator:
         timings = {"preprocess": 1e3 * (t1 - t0 + t5 - t4), "encoder": 1e3 * (t2 - t1), "pair_encoder": 1e3 * (t3 - t2),
                    "voting": 1e3 * (t4 - t3), "total": 1e3 * (t5 - t0)}
         return PoseResult(category=cfg.category, parts=parts, joints=joints, part_labels=all_labels,
-                          timings_ms=timings, model=self.name, num_points=len(raw))
+                          timings_ms=timings, model=self.name, num_points=len(raw), warnings=warnings)
+
+    def _extent_warnings(self, pts: np.ndarray, units: str) -> list[str]:
+        """Refuse a cloud far outside the sizes the model was trained on; warn about one outside them."""
+        rng = self.priors.radius_range_m
+        if rng is None:
+            return []
+        r = cloud_radius(pts)
+        lo, hi = rng
+        if lo / EXTENT_REFUSE <= r <= hi * EXTENT_REFUSE:
+            if lo / EXTENT_WARN <= r <= hi * EXTENT_WARN:
+                return []
+            return [f"the cloud's size ({r:.3g} m, 90th-percentile radius) is outside the {lo:.3g}-{hi:.3g} m the "
+                    f"{self.category} model was trained on: poses and boxes may be off"]
+        hint = ""
+        for unit, factor in (("mm", 1000.0), ("cm", 100.0)):
+            if units == "m" and lo / 3 <= r / factor <= hi * 3:
+                hint = f"; it looks like {unit}: pass units='{unit}' (ucope predict --units {unit})"
+                break
+        else:
+            if units != "m" and lo / 3 <= r * {"mm": 1000.0, "cm": 100.0}[units] <= hi * 3:
+                hint = "; it looks like metres already: leave units at 'm'"
+        raise InputError(f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
+                         f"{self.category} model was trained on{hint}")
 
     def _sample_pairs(self, labels: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """``(K, M, 2)`` pair indices, ``M = num_pairs // K``: with ``segment_pairs``, both points of part

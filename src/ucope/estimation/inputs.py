@@ -1,25 +1,31 @@
-"""Turning what users hold into the estimator's input: a checked, cleaned cloud.
+"""Turning what users hold into the estimator's input: a checked, cleaned cloud in a canonical order.
 
-* :func:`prepare_points`: validate an ``(N, 3)`` cloud (and optional normals), drop non-finite rows,
-  subsample huge clouds, estimate normals;
+* :func:`prepare_points`: validate a cloud (``(N, 3)`` or organised ``(H, W, 3)``, numpy / torch /
+  nested sequences, optional normals), convert its units, drop rows without a measurement, check that it
+  looks like one object in the camera frame, put it in a canonical order and subsample it;
 * :func:`rgbd_points`: back-project a depth image (with a mask and / or a box) into the object's cloud;
 * :func:`label_points`: carry the labels of the network's points over to every input point.
 
-Frames and units: camera frame (OpenCV axes: x right, y down, z forward), metres.
+Frames and units: camera frame (OpenCV axes: x right, y down, z forward), metres after conversion.
+
+**Order independence.** The points that go on are chosen and ordered by their own values, never by
+their position in the input: a cloud of at most ``max_points`` points is sorted lexicographically; a
+larger one keeps the ``max_points`` points whose seeded hash of their coordinates is smallest (a uniform
+random subset whose choice does not depend on the order), then sorted. So the same cloud in any order
+gives the same result.
 """
 
 from __future__ import annotations
 
-import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
 from ..errors import InputError
 from ..geometry.normals import estimate_normals
-from ..geometry.sampling import random_subset
 
-__all__ = ["MIN_POINTS", "NORMAL_K", "prepare_points", "rgbd_points", "label_points"]
+__all__ = ["MIN_POINTS", "NORMAL_K", "UNITS", "PreparedCloud", "prepare_points", "rgbd_points", "label_points", "canonical_subset"]
 
 MIN_POINTS = 32
 """The fewest finite points :meth:`ucope.estimation.Estimator.predict` accepts."""
@@ -27,74 +33,197 @@ MIN_POINTS = 32
 NORMAL_K = 16
 """Neighbours of the kNN-PCA normals estimated for clouds given without normals."""
 
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+"""Length units a cloud may come in, and their size in metres."""
+
+_EXACT_LABELS = 1 << 18  # clouds up to this many points are labelled by an exact nearest-neighbour query
+
+
+def _array(x, name: str) -> np.ndarray:
+    """``x`` (numpy, torch or nested sequences) as a real-valued float64 array, or a clear InputError."""
+    if isinstance(x, torch.Tensor):
+        x = x.detach().cpu().numpy()
+    try:
+        arr = np.asarray(x)
+    except ValueError as e:  # ragged nested sequences
+        raise InputError(f"{name} must be a numeric array of shape (N, 3); it has rows of different lengths ({e})") from None
+    if arr.dtype == object:
+        raise InputError(f"{name} must be a numeric array of shape (N, 3); it holds non-numeric or ragged rows")
+    if not np.issubdtype(arr.dtype, np.number) or np.issubdtype(arr.dtype, np.complexfloating) or arr.dtype == np.bool_:
+        raise InputError(f"{name} must hold real numbers, got dtype {arr.dtype}")
+    return arr.astype(np.float64, copy=False)
+
+
+@dataclass
+class PreparedCloud:
+    """A cloud ready for the network (:func:`prepare_points`).
+
+    Attributes:
+        points: ``(P, 3)`` float32, metres, canonical order, ``P <= max_points``.
+        normals: ``(P, 3)`` float32 unit normals facing the camera, or ``None`` (to be estimated).
+        raw: ``(N, 3)`` float64 the whole input in metres (an organised cloud flattened row by row).
+        finite: ``(N,)`` bool, the rows that are usable measurements.
+        shape: the input's leading shape: ``(N,)`` or ``(H, W)`` for an organised cloud.
+        warnings: what looked wrong but was not fatal, one sentence each.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray | None
+    raw: np.ndarray
+    finite: np.ndarray
+    shape: tuple
+    warnings: list[str] = field(default_factory=list)
+
+
+def canonical_subset(points: np.ndarray, m: int, seed: int = 0, normals: np.ndarray | None = None) -> np.ndarray:
+    """Indices of at most ``m`` rows of ``points`` ``(N, 3)``, chosen and ordered by their values only.
+
+    ``N <= m``: all rows, sorted lexicographically by (x, y, z) (then by the normals). ``N > m``: the
+    ``m`` rows with the smallest seeded 64-bit hash of their coordinates (and normals), a uniform random
+    subset that is the same whatever the order of the rows; then sorted. O(N) for large clouds.
+    """
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    cols = [P] if normals is None else [P, np.ascontiguousarray(normals, dtype=np.float64)]
+    if len(P) > m:
+        bits = np.concatenate(cols, axis=1).view(np.uint64)  # (N, 3 or 6)
+        h = np.full(len(P), np.uint64((0x9E3779B97F4A7C15 * (int(seed) + 1)) % (1 << 64)))
+        with np.errstate(over="ignore"):
+            for c in range(bits.shape[1]):  # a splitmix64-style mix of each column into the hash
+                h ^= bits[:, c]
+                h *= np.uint64(0xBF58476D1CE4E5B9)
+                h ^= h >> np.uint64(31)
+                h *= np.uint64(0x94D049BB133111EB)
+                h ^= h >> np.uint64(29)
+        idx = np.argpartition(h, m - 1)[:m]
+        idx = idx[np.lexsort((idx, h[idx]))]  # ties (identical rows) by index: they are interchangeable
+    else:
+        idx = np.arange(len(P))
+    keys = [c[idx, j] for c in reversed(cols) for j in (2, 1, 0)]
+    return idx[np.lexsort(keys)]
+
 
 def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = NORMAL_K,
-                   estimate: bool = True) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
-    """Validate and clean a cloud for the network.
+                   estimate: bool = True, units: str = "m") -> PreparedCloud:
+    """Validate and clean a cloud for the network (see the module docstring).
 
     Args:
-        points: ``(N, 3)`` camera frame, metres (any float dtype, numpy / torch / sequence).
-        normals: optional ``(N, 3)`` (any sign; re-normalised); estimated when ``None``.
-        max_points: clouds above this are subsampled uniformly (from ``seed``) before anything else.
-        estimate: ``False`` leaves missing normals to the caller (``nrm`` is then ``None``; the
-            estimator estimates them for the network's subset only).
+        points: ``(N, 3)`` or organised ``(H, W, 3)`` (NaN = no measurement), camera frame, in ``units``
+            (numpy, torch or nested sequences of numbers).
+        normals: optional, the points' shape (any length; re-normalised; flipped to face the camera, as
+            the models were trained); estimated when ``None``.
+        max_points: at most this many points go on (:func:`canonical_subset`), at least :data:`MIN_POINTS`.
+        seed: seed of the subset of a larger cloud.
+        estimate: ``False`` leaves missing normals to the caller (``normals`` is then ``None``).
+        units: ``"m"`` (default), ``"cm"`` or ``"mm"``: the cloud is converted to metres.
 
     Returns:
-        ``(pts, nrm, raw, finite)``: float32 ``(P, 3)`` points and unit normals (``P <= max_points``),
-        the input as an ``(N, 3)`` array (not copied) and the ``(N,)`` mask of its usable rows.
+        :class:`PreparedCloud`.
+
+    Raises:
+        InputError: a wrong shape or dtype, ragged rows, normals of another shape, fewer than
+            :data:`MIN_POINTS` usable points, coincident or collinear points, most points behind the
+            camera (z <= 0: not the camera frame), an unknown unit. Each message names the problem.
     """
-    if isinstance(points, torch.Tensor):
-        points = points.detach().cpu().numpy()
-    pts = np.asarray(points)
-    if pts.dtype == object or not np.issubdtype(pts.dtype, np.number):
-        raise InputError(f"points must be a numeric (N, 3) array, got dtype {pts.dtype}")
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise InputError(f"points must have shape (N, 3), got {pts.shape}")
+    if units not in UNITS:
+        raise InputError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+    if int(max_points) < MIN_POINTS:
+        raise InputError(f"max_input_points must be at least {MIN_POINTS}, got {max_points}")
+    pts = _array(points, "points")
+    if pts.ndim not in (2, 3) or pts.shape[-1] != 3 or pts.size == 0 and pts.ndim != 2:
+        raise InputError(f"points must have shape (N, 3) or (H, W, 3), got {pts.shape}")
+    shape = pts.shape[:-1]
+    pts = pts.reshape(-1, 3) * UNITS[units]
     n_in = len(pts)
     if n_in == 0:
         raise InputError("the point cloud is empty")
     nrm = None
     if normals is not None:
-        if isinstance(normals, torch.Tensor):
-            normals = normals.detach().cpu().numpy()
-        nrm = np.asarray(normals)
-        if nrm.shape != pts.shape:
-            raise InputError(f"normals must have the points' shape {pts.shape}, got {nrm.shape}")
+        nrm = _array(normals, "normals")
+        if nrm.shape[:-1] != shape or nrm.shape[-1:] != (3,):
+            raise InputError(f"normals must have the points' shape {(*shape, 3)}, got {nrm.shape}")
+        nrm = nrm.reshape(-1, 3)
     finite = np.isfinite(pts).all(axis=1)
     if nrm is not None:
         finite &= np.isfinite(nrm).all(axis=1) & (np.abs(nrm).sum(axis=1) > 0)
+    n_ok = int(finite.sum())
+    notes: list[str] = []
+    if n_ok < MIN_POINTS:
+        raise InputError(f"only {n_ok} of {n_in} points are usable (NaN / Inf coordinates or zero normals dropped); "
+                         f"at least {MIN_POINTS} are needed")
+    if n_ok < n_in and len(shape) == 1:  # an organised cloud marks missing pixels with NaN: nothing to warn about
+        notes.append(f"dropped {n_in - n_ok} of {n_in} points with NaN / Inf coordinates or normals")
     kept = np.flatnonzero(finite)
-    if len(kept) < n_in:
-        if len(kept) < MIN_POINTS:
-            raise InputError(f"only {len(kept)} of {n_in} points are finite (NaN / Inf / zero normals dropped); at least {MIN_POINTS} are needed")
-        warnings.warn(f"dropped {n_in - len(kept)} of {n_in} points with NaN / Inf coordinates or normals", stacklevel=3)
-    if len(kept) < MIN_POINTS:
-        raise InputError(f"the cloud has {len(kept)} points; at least {MIN_POINTS} are needed")
-    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=(1,)))
-    if len(kept) > max_points:
-        kept = kept[random_subset(len(kept), max_points, rng)]
-    p = pts[kept].astype(np.float32)
-    if float(np.ptp(p, axis=0).max()) < 1e-6:
+    sub = kept[canonical_subset(pts[kept], int(max_points), seed, None if nrm is None else nrm[kept])]
+    p = pts[sub]
+    behind = float(np.mean(pts[kept, 2] <= 0.0))
+    if behind > 0.5:
+        raise InputError(f"{100 * behind:.0f} % of the points lie behind the camera (z <= 0): the cloud must be in the camera "
+                         "frame (OpenCV axes: x right, y down, z forward from the camera), not in an object or world frame")
+    if behind > 0:
+        notes.append(f"{100 * behind:.1f} % of the points lie behind the camera (z <= 0)")
+    ev = np.sqrt(np.clip(np.linalg.eigvalsh(np.cov(p.T)), 0.0, None))[::-1]  # spreads along the principal axes, largest first
+    if ev[0] < 1e-6:
         raise InputError("all points coincide: the cloud has no extent")
-    if nrm is None:
-        n = estimate_normals(p, k=normal_k) if estimate else None
-    else:
-        n = nrm[kept].astype(np.float32)
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return p, n, pts, finite
+    if ev[1] < 1e-3 * ev[0]:
+        raise InputError(f"the points lie on a line (spreads {ev[0]:.3g} / {ev[1]:.2g} / {ev[2]:.2g} m): not the surface of an object")
+    if ev[2] < 1e-4 * ev[1]:
+        notes.append(f"the points lie in one plane (spreads {ev[0]:.3g} / {ev[1]:.3g} / {ev[2]:.2g} m)")
+    n = None
+    if nrm is not None:
+        n = nrm[sub] / np.linalg.norm(nrm[sub], axis=1, keepdims=True)
+        n = np.where((n * p).sum(axis=1, keepdims=True) > 0, -n, n)  # face the camera (at the origin)
+        n = n.astype(np.float32)
+    elif estimate:
+        n = estimate_normals(p, k=normal_k)
+    return PreparedCloud(points=p.astype(np.float32), normals=n, raw=pts, finite=finite, shape=tuple(shape), warnings=notes)
 
 
-def label_points(raw: np.ndarray, finite: np.ndarray, ref: np.ndarray, ref_labels: np.ndarray, chunk: int = 1 << 18) -> np.ndarray:
-    """The label of the nearest ``ref`` point for every usable row of ``raw`` (``-1`` elsewhere),
-    in chunks so that a cloud of millions of points needs little extra memory."""
+def label_points(raw: np.ndarray, finite: np.ndarray, ref: np.ndarray, ref_labels: np.ndarray, grid: int = 64) -> np.ndarray:
+    """The label of the nearest ``ref`` point for every usable row of ``raw`` (``-1`` elsewhere).
+
+    Args:
+        raw: ``(N, 3)`` points; finite: ``(N,)`` bool, the rows to label.
+        ref: ``(R, 3)`` the labelled points (the network's); ref_labels: ``(R,)``.
+        grid: cells per axis of the label lattice used for large clouds.
+
+    Clouds of up to 2^18 usable points get an exact nearest-neighbour query. Larger ones look their
+    label up in a ``grid^3`` lattice over ``ref``'s bounding box whose cells carry the label of the
+    ``ref`` point nearest their centre (cells of ~1.6 % of the object's extent, finer than the spacing of
+    the network's 1024 points); points outside the lattice get the exact query. O(N), no sort:
+    benchmarks/bench_predict.py times it on 10 million points.
+    """
     from scipy.spatial import cKDTree
 
-    tree = cKDTree(ref)
+    n_ok = int(np.count_nonzero(finite))
     out = np.full(len(raw), -1, dtype=np.int64)
-    for lo in range(0, len(raw), chunk):
-        f = np.flatnonzero(finite[lo : lo + chunk])
-        if len(f):
-            out[lo + f] = ref_labels[tree.query(raw[lo + f].astype(np.float32), k=1)[1]]
+    if n_ok == 0:
+        return out
+    tree = cKDTree(np.asarray(ref, dtype=np.float64))
+    labels = np.asarray(ref_labels, dtype=np.int64)
+    if n_ok <= _EXACT_LABELS:
+        rows = np.flatnonzero(finite)
+        out[rows] = labels[tree.query(raw[rows], k=1)[1]]
+        return out
+    lo = ref.min(0).astype(np.float64)
+    cell = float(np.max(ref.max(0) - lo)) / (grid - 2) + 1e-9
+    lo = lo - cell
+    ax = lo[:, None] + (np.arange(grid) + 0.5) * cell  # (3, G) cell centres per axis
+    centres = np.stack(np.meshgrid(ax[0], ax[1], ax[2], indexing="ij"), axis=-1).reshape(-1, 3)
+    lut = labels[tree.query(centres, k=1, workers=-1)[1]]
+    key = np.zeros(len(raw), dtype=np.int32)
+    outside = ~finite
+    with np.errstate(invalid="ignore"):  # non-finite rows are outside anyway
+        for a in range(3):  # per axis, in place: "+1, truncate, -1" is floor above -1 and negative below 0
+            i = ((raw[:, a] - lo[a]) * (1.0 / cell) + 1.0).astype(np.int32)
+            i -= 1
+            outside |= i.view(np.uint32) >= grid  # negatives wrap to huge
+            key *= grid
+            key += i
+    np.take(lut, key, out=out, mode="clip")
+    far = np.flatnonzero(outside & finite)
+    if len(far):
+        out[far] = labels[tree.query(raw[far], k=1, workers=-1)[1]]
+    out[~finite] = -1
     return out
 
 
@@ -112,14 +241,23 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
 
     Points far from the bulk of the object (mask bleeding onto the background) are removed:
     those more than 3x the median distance from the median point, and at least 0.05 m away.
+
+    Raises:
+        InputError: a wrong shape or dtype; an 8-bit depth image (it cannot hold millimetres: a
+            visualisation or a mask?); a median depth outside 0.05-20 m after ``depth_scale`` (the
+            scale is wrong); bad intrinsics; a mask of another shape; a box that is not finite or not
+            inside the image; no valid pixel left.
     """
     from ..render.camera import PinholeCamera
 
     d = np.asarray(depth)
     if d.ndim != 2 or d.size == 0:
         raise InputError(f"depth must be a non-empty (H, W) image, got shape {d.shape}")
-    if not np.issubdtype(d.dtype, np.number):
+    if not np.issubdtype(d.dtype, np.number) or d.dtype == np.bool_:
         raise InputError(f"depth must be numeric, got dtype {d.dtype}")
+    if d.dtype in (np.uint8, np.int8):
+        raise InputError("the depth image has 8-bit values, which cannot hold depth in millimetres (is it a visualisation "
+                         "or a mask?); give the 16-bit depth (millimetres) or float depth in metres with depth_scale=1")
     if not (np.isfinite(depth_scale) and depth_scale > 0):
         raise InputError(f"depth_scale must be positive, got {depth_scale}")
     H, W = d.shape
@@ -135,7 +273,10 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
             raise InputError(f"mask has shape {m.shape}, the depth image {d.shape}")
         valid &= np.isin(m, np.atleast_1d(mask_label)) if mask_label is not None else m.astype(bool)
     if box is not None:
-        x0, y0, x1, y1 = (int(round(float(v))) for v in box)
+        b = np.asarray(box, dtype=np.float64).reshape(-1)
+        if b.shape != (4,) or not np.all(np.isfinite(b)):
+            raise InputError(f"box must be 4 finite numbers (x_min, y_min, x_max, y_max), got {box}")
+        x0, y0, x1, y1 = (int(round(float(v))) for v in b)
         if not (0 <= x0 < x1 <= W and 0 <= y0 < y1 <= H):
             raise InputError(f"box {tuple(box)} is not inside the {W}x{H} image (x_min < x_max <= W, y_min < y_max <= H)")
         crop = np.zeros_like(valid)
@@ -145,6 +286,10 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
     pts, _ = cam.backproject(d.astype(np.float64) / depth_scale, valid)
     if len(pts) == 0:
         raise InputError("no valid depth pixels inside the mask / box")
+    z = float(np.median(pts[:, 2]))
+    if not 0.05 <= z <= 20.0:
+        raise InputError(f"the object's median depth is {z:.4g} m after dividing by depth_scale={depth_scale:g}: check the scale "
+                         "(depth_scale=1000 for millimetre PNGs, 1 for float depth in metres)")
     med = np.median(pts, axis=0)
     r = np.linalg.norm(pts - med, axis=1)
     keep = r <= max(3.0 * float(np.median(r)), 0.05)

@@ -15,7 +15,8 @@ OpenCV: +x right, +y down, +z forward)::
       "part_labels": [0, 0, 1, -1, ...],      # one per input point; -1: dropped (NaN / Inf)
       "num_points": 12345,                    # input points
       "timings_ms": {"preprocess": ..., "encoder": ..., "pair_encoder": ..., "voting": ..., "total": ...},
-      "model": "laptop", "ucope_version": "0.1.0", "conventions_version": "1"
+      "warnings": ["..."],                    # what looked wrong with the input or the estimate
+      "model": "laptop", "ucope_version": "0.2.0", "conventions_version": "1"
     }
 
 ``cam_from_part`` maps part-frame points to the camera frame (the part's amodal box is centred on the
@@ -111,6 +112,7 @@ class PoseResult:
     timings_ms: dict[str, float] = field(default_factory=dict)
     model: str = ""
     num_points: int = 0
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def cam_from_part(self) -> np.ndarray:
@@ -135,6 +137,7 @@ class PoseResult:
             "part_labels": np.asarray(self.part_labels, dtype=np.int64).tolist(),
             "num_points": int(self.num_points),
             "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
+            "warnings": [str(w) for w in self.warnings],
             "model": self.model,
             "ucope_version": __version__,
             "conventions_version": CONVENTIONS_VERSION,
@@ -151,7 +154,8 @@ class PoseResult:
             return cls(category=str(d["category"]), parts=[PartEstimate.from_dict(p) for p in d["parts"]],
                        joints=[JointEstimate.from_dict(j) for j in d["joints"]],
                        part_labels=np.asarray(d["part_labels"], dtype=np.int64), timings_ms=dict(d.get("timings_ms", {})),
-                       model=str(d.get("model", "")), num_points=int(d.get("num_points", 0)))
+                       model=str(d.get("model", "")), num_points=int(d.get("num_points", 0)),
+                       warnings=[str(w) for w in d.get("warnings", [])])
         except (KeyError, TypeError, ValueError) as e:
             raise DataError(f"malformed ucope result: {e}") from None
 

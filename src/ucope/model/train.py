@@ -20,7 +20,8 @@ Determinism: the model's initial weights come from ``seed``; epoch ``e``'s sampl
 ``DistributedSampler(shuffle=True, seed=seed)`` at epoch ``e`` (the same permutation on every machine)
 and item ``i``'s points and pairs are drawn from ``(seed, e, i)``. A run resumed from a checkpoint at
 step ``s`` therefore sees exactly the batches an uninterrupted run sees after step ``s``, and on the CPU
-reaches bit-identical parameters. The learning rate is a function of the step: ``lr * lr_gamma **
+reaches bit-identical parameters; the checkpoint also holds the open window of the metrics log, so the
+resumed run writes the same ``metrics.jsonl`` losses (wall times aside) wherever it was stopped. The learning rate is a function of the step: ``lr * lr_gamma **
 floor(epoch / lr_step_epochs)`` (the paper: 1e-3, x0.1 every 10 epochs; it names no optimiser, we use Adam).
 """
 
@@ -53,7 +54,7 @@ from .config import ModelConfig
 from .factory import build_model
 from .network import UCOPENet
 
-__all__ = ["TrainConfig", "TrainingError", "train", "parameter_digest"]
+__all__ = ["TrainConfig", "TrainingError", "train", "parameter_digest", "RESUME_MAY_CHANGE"]
 
 
 class TrainingError(UcopeError, RuntimeError):
@@ -84,7 +85,8 @@ class TrainConfig:
         max_minutes: stop (with a checkpoint and a model) once this much wall time has passed.
         threads: torch CPU threads (``None``: torch's default).
         device: ``"auto"`` (CUDA if available), ``"cpu"`` or ``"cuda"``.
-        resume: continue from ``out``'s checkpoint.
+        resume: continue from ``out``'s checkpoint; settings other than :data:`RESUME_MAY_CHANGE` must
+            be the checkpoint's, unless ``allow_changed_settings``.
         init_from: start from the weights of this model (a shipped model's name such as ``"laptop"``,
             a run folder or a model JSON: fine-tuning) instead of random ones. The network (its
             architecture, bins and the category statistics its outputs are relative to) is that
@@ -120,6 +122,7 @@ class TrainConfig:
     device: str = "auto"
     resume: bool = False
     init_from: str | None = None
+    allow_changed_settings: bool = False
     progress: bool = True
 
     def validate(self) -> None:
@@ -142,6 +145,10 @@ class TrainConfig:
             raise InputError(f"model_size must be 'slim' or 'full', got {self.model_size!r}")
         if self.workers < 0:
             raise InputError("workers must be >= 0")
+        for name in ("seed", "data_seed"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+                raise InputError(f"{name} must be an integer >= 0, got {v!r}")
         if self.device not in ("auto", "cpu", "cuda"):
             raise InputError(f"device must be auto, cpu or cuda, got {self.device!r}")
 
@@ -339,146 +346,207 @@ def _init_config(tc: TrainConfig) -> tuple[ModelConfig, torch.nn.Module]:
     return dataclasses.replace(cfg, **{k: v for k, v in tc.model_overrides.items() if k in _FINE_TUNE_FIELDS}), init
 
 
-def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
-    out = Path(tc.out)
-    device = torch.device(f"cuda:{dd.local_rank}" if use_cuda else "cpu")
-    if use_cuda:
-        torch.cuda.set_device(device)
-    if tc.threads:
-        torch.set_num_threads(int(tc.threads))
-    if dd.main:
-        out.mkdir(parents=True, exist_ok=True)
-    dd.barrier()
+RESUME_MAY_CHANGE = ("out", "data", "val_data", "steps", "epochs", "workers", "log_every", "val_every", "checkpoint_every",
+                     "max_minutes", "threads", "device", "resume", "allow_changed_settings", "progress")
+"""Training settings a ``--resume`` may change (where the run is, how long it runs, how it reports, on
+what hardware); any other change makes a different model and is refused unless ``allow_changed_settings``.
+The data folders may move, but the data sets' content must be the same."""
 
-    samples, data_desc, structure = _load_samples(tc)
-    ckpt = load_checkpoint(out) if tc.resume else None
-    if ckpt is not None:
-        cfg = ckpt["model_config"]
-        if cfg.category != tc.category:
-            raise TrainingError(f"the checkpoint in {out} is a {cfg.category!r} model, not {tc.category!r}")
-        init = None
-    elif tc.init_from is not None:
-        cfg, init = _init_config(tc)
-    else:
-        init = None
-        priors = measure_priors(samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
-                                template_samples=100 if tc.on_the_fly else 400)
-        cfg = ModelConfig.default(priors, size=tc.model_size, **tc.model_overrides)
-    torch.manual_seed(tc.seed)
-    model = build_model(cfg)
-    if init is not None:
-        model.load_state_dict(init.state_dict())
-    optimizer = torch.optim.Adam(model.parameters(), lr=tc.lr)
-    step, elapsed_before = 0, 0.0
-    if ckpt is not None:
-        load_checkpoint(out, model, optimizer)
-        step = int(ckpt["state"]["step"])
-        elapsed_before = float(ckpt["state"].get("train_time_s", 0.0))
-    model.to(device)
-    if ckpt is not None:  # optimiser tensors follow the parameters' device
-        for st in optimizer.state.values():
-            for k, v in st.items():
-                if isinstance(v, torch.Tensor) and k != "step":
-                    st[k] = v.to(device)
-    net = model
-    if dd.enabled:
-        net = torch.nn.parallel.DistributedDataParallel(model, device_ids=[device.index] if use_cuda else None)
 
-    items = TrainingItems(samples, cfg, seed=tc.seed)
-    per_step = tc.batch_size * dd.world
-    steps_per_epoch = len(items) // per_step
-    if steps_per_epoch == 0:
-        raise InputError(f"the training data ({len(items)} samples) is smaller than one global batch ({per_step})")
-    total = int(tc.steps) if tc.steps is not None else int(round(float(tc.epochs) * steps_per_epoch))
-    val_samples, val_desc = _load_val(tc) if dd.main else (None, None)
+def _check_resume_settings(tc: TrainConfig, ckpt: dict, data_desc: dict) -> None:
+    old = (ckpt.get("state") or {}).get("train_config") or {}
+    new = json.loads(json.dumps(tc.to_dict()))  # as the checkpoint stored it (tuples as lists)
+    changed = sorted(k for k in new if k not in RESUME_MAY_CHANGE and k in old and old[k] != new[k])
+    old_data = {k: v for k, v in ((ckpt.get("state") or {}).get("data") or {}).items() if k != "path"}
+    if old_data and old_data != json.loads(json.dumps({k: v for k, v in data_desc.items() if k != "path"})):
+        changed.append("training data content")
+    if changed and not tc.allow_changed_settings:
+        detail = ", ".join(f"{k}: {old.get(k)!r} -> {new.get(k)!r}" if k in new else k for k in changed)
+        raise TrainingError(f"--resume with other settings than the checkpoint's ({detail}) would train a different model; "
+                            "resume with the same settings, or pass --allow-changed-settings to go on anyway")
 
-    log = _MetricsLog(out / "metrics.jsonl", dd.main, step if ckpt is not None else None)
-    bar = _progress_bar(total, step, tc.progress and dd.main)
-    window: dict[str, float] = {}
-    window_n, window_t0 = 0, time.perf_counter()
-    t_start = time.perf_counter()
-    last_val: dict[str, float] = dict(ckpt["state"].get("last_val", {})) if ckpt is not None else {}
-    stopped_early = None
 
-    def state(epoch: int) -> dict:
-        return {"step": step, "epoch": epoch, "total_steps": total, "steps_per_epoch": steps_per_epoch,
-                "world_size": dd.world, "train_time_s": elapsed_before + time.perf_counter() - t_start,
-                "last_val": last_val, "train_config": tc.to_dict(), "data": data_desc}
+class _Run:
+    """One training run, step by step (:func:`train`): set-up, the loop, checkpoints, logs, the model card."""
 
-    def checkpoint(epoch: int, sync: bool = True) -> None:
+    def __init__(self, tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step):
+        self.tc, self.dd, self.on_step = tc, dd, on_step
+        self.use_cuda = use_cuda
+        self.out = Path(tc.out)
+        self.device = torch.device(f"cuda:{dd.local_rank}" if use_cuda else "cpu")
+        if use_cuda:
+            torch.cuda.set_device(self.device)
+        if tc.threads:
+            torch.set_num_threads(int(tc.threads))
         if dd.main:
-            save_checkpoint(out, model, optimizer, state(epoch))
-        if sync:
-            dd.barrier()
+            self.out.mkdir(parents=True, exist_ok=True)
+        dd.barrier()
+        self.samples, self.data_desc, structure = _load_samples(tc)
+        self.ckpt = load_checkpoint(self.out) if tc.resume else None
+        if self.ckpt is not None:
+            _check_resume_settings(tc, self.ckpt, self.data_desc)
+        self.cfg, init = self._config(structure)
+        torch.manual_seed(tc.seed)
+        self.model = build_model(self.cfg)
+        if init is not None:
+            self.model.load_state_dict(init.state_dict())
+        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=tc.lr)
+        self.step, self.elapsed_before = 0, 0.0
+        self.last_val: dict[str, float] = {}
+        self.window: dict[str, float] = {}  # the train logs summed since the last metrics line
+        self.window_n = 0
+        self._restore()
+        self.net = self.model
+        if dd.enabled:
+            self.net = torch.nn.parallel.DistributedDataParallel(self.model, device_ids=[self.device.index] if use_cuda else None)
+        self.items = TrainingItems(self.samples, self.cfg, seed=tc.seed)
+        self.per_step = tc.batch_size * dd.world
+        self.steps_per_epoch = len(self.items) // self.per_step
+        if self.steps_per_epoch == 0:
+            raise InputError(f"the training data ({len(self.items)} samples) is smaller than one global batch ({self.per_step})")
+        self.total = int(tc.steps) if tc.steps is not None else int(round(float(tc.epochs) * self.steps_per_epoch))
+        self.val_samples, self.val_desc = _load_val(tc) if dd.main else (None, None)
+        self.log = _MetricsLog(self.out / "metrics.jsonl", dd.main, self.step if self.ckpt is not None else None)
+        self.t_start = time.perf_counter()
+        self.window_t0 = self.t_start
+        self.stopped_early: str | None = None
 
-    model.train()
-    epoch = step // steps_per_epoch
-    try:
-        while step < total and stopped_early is None:
-            epoch = step // steps_per_epoch
-            start = step % steps_per_epoch
-            sampler = DistributedSampler(items, num_replicas=dd.world, rank=dd.rank, shuffle=True, seed=tc.seed, drop_last=True)
-            sampler.set_epoch(epoch)
-            order = list(sampler)[start * tc.batch_size : steps_per_epoch * tc.batch_size]
-            order = order[: (total - step) * tc.batch_size]
-            items.set_epoch(epoch)
-            loader = DataLoader(items, batch_size=tc.batch_size, sampler=order, num_workers=tc.workers,
-                                collate_fn=collate_items, pin_memory=use_cuda)
-            for batch in loader:
-                lr = _lr_at(tc, step, steps_per_epoch)
-                for g in optimizer.param_groups:
-                    g["lr"] = lr
-                batch = batch_to(batch, device)
-                outputs = net(batch["points"], batch["normals"], batch["pair_idx"], batch["fps_idx"])
-                loss, logs = model.loss_from_outputs(outputs, batch)
-                if dd.any(not bool(torch.isfinite(loss))):  # every rank stops together
-                    raise TrainingError(f"the loss became non-finite at step {step + 1} (here: {float(loss)}); lower --lr (now {lr:g}) and --resume from the last checkpoint")
-                optimizer.zero_grad(set_to_none=True)
-                loss.backward()
-                optimizer.step()
-                step += 1
-                for k, v in logs.items():
-                    window[k] = window.get(k, 0.0) + v
-                window_n += 1
-                if bar is not None:
-                    bar.update(1)
-                if step % tc.log_every == 0 or step == total:
-                    dt = time.perf_counter() - window_t0
-                    row = {"step": step, "epoch": round(step / steps_per_epoch, 4), "lr": lr,
-                           "time_s": round(elapsed_before + time.perf_counter() - t_start, 2),
-                           "samples_per_s": round(window_n * per_step / max(dt, 1e-9), 2)}
-                    row.update({f"train/{k}": v / window_n for k, v in window.items()})
-                    log.write(row)
+    def _config(self, structure) -> tuple[ModelConfig, torch.nn.Module | None]:
+        """The model configuration: the checkpoint's (resume), the initial model's (fine-tuning) or a new
+        one with priors measured on the training data."""
+        tc = self.tc
+        if self.ckpt is not None:
+            cfg = self.ckpt["model_config"]
+            if cfg.category != tc.category:
+                raise TrainingError(f"the checkpoint in {self.out} is a {cfg.category!r} model, not {tc.category!r}")
+            return cfg, None
+        if tc.init_from is not None:
+            return _init_config(tc)
+        priors = measure_priors(self.samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
+                                template_samples=100 if tc.on_the_fly else 400)
+        return ModelConfig.default(priors, size=tc.model_size, **tc.model_overrides), None
+
+    def _restore(self) -> None:
+        """Weights, optimiser, counters and the open metrics window of a resumed run."""
+        if self.ckpt is not None:
+            load_checkpoint(self.out, self.model, self.optimizer)
+            st = self.ckpt["state"]
+            self.step = int(st["step"])
+            self.elapsed_before = float(st.get("train_time_s", 0.0))
+            self.last_val = dict(st.get("last_val", {}))
+            self.window = {k: float(v) for k, v in (st.get("window") or {}).items()}
+            self.window_n = int(st.get("window_n", 0))
+        self.model.to(self.device)
+        if self.ckpt is not None:  # optimiser tensors follow the parameters' device
+            for st in self.optimizer.state.values():
+                for k, v in st.items():
+                    if isinstance(v, torch.Tensor) and k != "step":
+                        st[k] = v.to(self.device)
+
+    # ------------------------------------------------------------------------------ bookkeeping
+    def elapsed(self) -> float:
+        return self.elapsed_before + time.perf_counter() - self.t_start
+
+    def state(self) -> dict:
+        return {"step": self.step, "epoch": self.step // self.steps_per_epoch, "total_steps": self.total,
+                "steps_per_epoch": self.steps_per_epoch, "world_size": self.dd.world, "train_time_s": self.elapsed(),
+                "last_val": self.last_val, "train_config": self.tc.to_dict(), "data": self.data_desc,
+                "window": self.window, "window_n": self.window_n}
+
+    def checkpoint(self, sync: bool = True) -> None:
+        if self.dd.main:
+            save_checkpoint(self.out, self.model, self.optimizer, self.state())
+        if sync:
+            self.dd.barrier()
+
+    def log_train(self, lr: float, bar) -> None:
+        """One metrics line: the mean of every train log since the previous line."""
+        dt = time.perf_counter() - self.window_t0
+        row = {"step": self.step, "epoch": round(self.step / self.steps_per_epoch, 4), "lr": lr, "time_s": round(self.elapsed(), 2),
+               "samples_per_s": round(self.window_n * self.per_step / max(dt, 1e-9), 2)}
+        row.update({f"train/{k}": v / self.window_n for k, v in self.window.items()})
+        self.log.write(row)
+        if bar is not None:
+            bar.set_postfix(loss=f"{row['train/loss']:.3f}", samples_s=f"{row['samples_per_s']:.1f}")
+        self.window, self.window_n, self.window_t0 = {}, 0, time.perf_counter()
+
+    def run_validation(self) -> None:
+        if self.dd.main:
+            self.last_val = validate(self.model, self.val_samples, self.tc.batch_size, self.tc.seed + 1, self.device)
+            self.log.write({"step": self.step, "epoch": round(self.step / self.steps_per_epoch, 4),
+                            **{f"val/{k}": v for k, v in self.last_val.items()}})
+
+    # ------------------------------------------------------------------------------------- loop
+    def epoch_loader(self) -> DataLoader:
+        """The rest of the current epoch's batches: epoch ``e``'s order is the same permutation on every
+        machine (``DistributedSampler(shuffle=True, seed)`` at epoch ``e``), started at this step."""
+        tc, epoch = self.tc, self.step // self.steps_per_epoch
+        start = self.step % self.steps_per_epoch
+        sampler = DistributedSampler(self.items, num_replicas=self.dd.world, rank=self.dd.rank, shuffle=True, seed=tc.seed, drop_last=True)
+        sampler.set_epoch(epoch)
+        order = list(sampler)[start * tc.batch_size : self.steps_per_epoch * tc.batch_size]
+        order = order[: (self.total - self.step) * tc.batch_size]
+        self.items.set_epoch(epoch)
+        return DataLoader(self.items, batch_size=tc.batch_size, sampler=order, num_workers=tc.workers,
+                          collate_fn=collate_items, pin_memory=self.use_cuda)
+
+    def train_step(self, batch: dict) -> float:
+        """One optimiser step on ``batch``; returns the learning rate used."""
+        lr = _lr_at(self.tc, self.step, self.steps_per_epoch)
+        for g in self.optimizer.param_groups:
+            g["lr"] = lr
+        batch = batch_to(batch, self.device)
+        outputs = self.net(batch["points"], batch["normals"], batch["pair_idx"], batch["fps_idx"])
+        loss, logs = self.model.loss_from_outputs(outputs, batch)
+        if self.dd.any(not bool(torch.isfinite(loss))):  # every rank stops together
+            raise TrainingError(f"the loss became non-finite at step {self.step + 1} (here: {float(loss)}); lower --lr "
+                                f"(now {lr:g}) and --resume from the last checkpoint")
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        self.step += 1
+        for k, v in logs.items():
+            self.window[k] = self.window.get(k, 0.0) + v
+        self.window_n += 1
+        return lr
+
+    def loop(self) -> None:
+        tc = self.tc
+        bar = _progress_bar(self.total, self.step, tc.progress and self.dd.main)
+        self.model.train()
+        try:
+            while self.step < self.total and self.stopped_early is None:
+                for batch in self.epoch_loader():
+                    lr = self.train_step(batch)
                     if bar is not None:
-                        bar.set_postfix(loss=f"{row['train/loss']:.3f}", samples_s=f"{row['samples_per_s']:.1f}")
-                    window, window_n, window_t0 = {}, 0, time.perf_counter()
-                if step % tc.val_every == 0 or step == total:
-                    if dd.main:
-                        last_val = validate(model, val_samples, tc.batch_size, tc.seed + 1, device)
-                        log.write({"step": step, "epoch": round(step / steps_per_epoch, 4), **{f"val/{k}": v for k, v in last_val.items()}})
-                    dd.barrier()
-                if step % tc.checkpoint_every == 0 and step != total:
-                    checkpoint(epoch)
-                if on_step is not None:
-                    on_step(step)
-                over = tc.max_minutes is not None and (time.perf_counter() - t_start) / 60.0 >= tc.max_minutes
-                if dd.any(over):
-                    stopped_early = f"time budget of {tc.max_minutes} min reached"
-                    break
-    except KeyboardInterrupt:  # save what is done; the other ranks are being interrupted too
-        checkpoint(step // steps_per_epoch, sync=False)
+                        bar.update(1)
+                    if self.step % tc.log_every == 0 or self.step == self.total:
+                        self.log_train(lr, bar)
+                    if self.step % tc.val_every == 0 or self.step == self.total:
+                        self.run_validation()
+                        self.dd.barrier()
+                    if self.step % tc.checkpoint_every == 0 and self.step != self.total:
+                        self.checkpoint()
+                    if self.on_step is not None:
+                        self.on_step(self.step)
+                    over = tc.max_minutes is not None and (time.perf_counter() - self.t_start) / 60.0 >= tc.max_minutes
+                    if self.dd.any(over):
+                        self.stopped_early = f"time budget of {tc.max_minutes} min reached"
+                        break
+        except KeyboardInterrupt:  # save what is done (the open metrics window too); the other ranks are interrupted too
+            self.checkpoint(sync=False)
+            if bar is not None:
+                bar.close()
+            raise
         if bar is not None:
             bar.close()
-        raise
-    if bar is not None:
-        bar.close()
-    if stopped_early is not None and dd.main and (not last_val or step % tc.val_every != 0):
-        last_val = validate(model, val_samples, tc.batch_size, tc.seed + 1, device)
-        log.write({"step": step, "epoch": round(step / steps_per_epoch, 4), **{f"val/{k}": v for k, v in last_val.items()}})
-    checkpoint(step // steps_per_epoch)
-    digests = dd.gather_str(parameter_digest(model))
-    card: dict = {}
-    if dd.main:
+        if self.stopped_early is not None and self.dd.main and (not self.last_val or self.step % tc.val_every != 0):
+            self.run_validation()
+        self.checkpoint()
+
+    # -------------------------------------------------------------------------------- the result
+    def model_card(self, digests: list[str]) -> dict:
+        tc, cfg = self.tc, self.cfg
         card = {
             "category": cfg.category,
             "num_parts": cfg.num_parts,
@@ -490,16 +558,16 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
             "ucope_version": __version__,
             "conventions_version": CONVENTIONS_VERSION,
             "generator_version": GENERATOR_VERSION,
-            "training_data": data_desc,
-            "validation_data": val_desc,
-            "steps": step,
-            "epochs": round(step / steps_per_epoch, 3),
+            "training_data": self.data_desc,
+            "validation_data": self.val_desc,
+            "steps": self.step,
+            "epochs": round(self.step / self.steps_per_epoch, 3),
             "batch_size": tc.batch_size,
-            "world_size": dd.world,
-            "train_time_s": round(elapsed_before + time.perf_counter() - t_start, 1),
-            "stopped_early": stopped_early,
-            "final_validation": last_val,
-            "hardware": {"device": str(device) if not use_cuda else torch.cuda.get_device_name(device),
+            "world_size": self.dd.world,
+            "train_time_s": round(self.elapsed(), 1),
+            "stopped_early": self.stopped_early,
+            "final_validation": self.last_val,
+            "hardware": {"device": str(self.device) if not self.use_cuda else torch.cuda.get_device_name(self.device),
                          "cpu_count": os.cpu_count(), "torch_threads": torch.get_num_threads(),
                          "platform": platform.platform(), "torch": torch.__version__},
             "parameter_digests": digests,
@@ -512,9 +580,23 @@ def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
             if init_info.get("initialised_from"):  # a chain of fine-tunings: keep every stage
                 card["initialised_from"]["initialised_from"] = init_info["initialised_from"]
             card["model_size"] = init_info.get("model_size", tc.model_size)
-        save_model(model, out, info=card)
-        atomic_write_json(out / "model_card.json", card)
-    dd.barrier()
-    if len(set(digests)) != 1:
-        raise TrainingError(f"the ranks ended with different parameters ({digests}): the DDP run is inconsistent")
-    return card
+        return card
+
+    def finish(self) -> dict:
+        """Save the model and its card (rank 0) and check that every rank ended with the same weights."""
+        digests = self.dd.gather_str(parameter_digest(self.model))
+        card: dict = {}
+        if self.dd.main:
+            card = self.model_card(digests)
+            save_model(self.model, self.out, info=card)
+            atomic_write_json(self.out / "model_card.json", card)
+        self.dd.barrier()
+        if len(set(digests)) != 1:
+            raise TrainingError(f"the ranks ended with different parameters ({digests}): the DDP run is inconsistent")
+        return card
+
+
+def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
+    run = _Run(tc, dd, use_cuda, on_step)
+    run.loop()
+    return run.finish()
