@@ -1,7 +1,7 @@
 """The result of a pose estimate, and its stable JSON form.
 
-JSON form (``format: "ucope-result/1"``; every length in metres, angles in radians, camera frame =
-OpenCV: +x right, +y down, +z forward)::
+JSON form (``format: "ucope-result/1"``, JSON Schema: :func:`result_schema`, docs/formats.md; every
+length in metres, angles in radians, camera frame = OpenCV: +x right, +y down, +z forward)::
 
     {
       "format": "ucope-result/1",
@@ -34,11 +34,21 @@ from typing import Any
 
 import numpy as np
 
-from ..versions import CONVENTIONS_VERSION, RESULT_FORMAT, __version__
-from ..fileio import atomic_write_json, read_json
 from ..errors import DataError
+from ..fileio import atomic_write_json, read_json
+from ..versions import CONVENTIONS_VERSION, RESULT_FORMAT, __version__
 
-__all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult"]
+__all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult", "result_schema", "SCHEMA_FILE"]
+
+SCHEMA_FILE = Path(__file__).with_name("result.schema.json")
+"""The JSON Schema (draft 2020-12) of ``ucope-result/1`` and ``ucope-results/1``, shipped in the package."""
+
+
+def result_schema() -> dict:
+    """The JSON Schema (draft 2020-12) of a result file: one object's ``ucope-result/1`` or one frame's
+    ``ucope-results/1`` (``$defs/result`` and ``$defs/results``). Validate with any JSON Schema library,
+    e.g. ``jsonschema.validate(json.load(f), result_schema())``; docs/formats.md describes every field."""
+    return read_json(SCHEMA_FILE)
 
 
 def _floats(a, ndigits: int = 7) -> Any:
@@ -65,8 +75,8 @@ class PartEstimate:
 
     @classmethod
     def from_dict(cls, d: dict) -> "PartEstimate":
-        return cls(index=int(d["index"]), label=str(d["label"]), cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4),
-                   size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
+        return cls(index=int(d["index"]), label=str(d["label"]),
+                   cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4), size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
                    symmetry=str(d.get("symmetry", "none")), num_votes=int(d.get("num_votes", 0)))
 
 
@@ -146,7 +156,8 @@ class PoseResult:
     @classmethod
     def from_dict(cls, d: dict) -> "PoseResult":
         if not isinstance(d, dict) or d.get("format") != RESULT_FORMAT:
-            raise DataError(f"not a ucope result (format {d.get('format') if isinstance(d, dict) else None!r}, expected {RESULT_FORMAT!r})")
+            found = d.get("format") if isinstance(d, dict) else None
+            raise DataError(f"not a ucope result (format {found!r}, expected {RESULT_FORMAT!r})")
         try:
             return cls(category=str(d["category"]), parts=[PartEstimate.from_dict(p) for p in d["parts"]],
                        joints=[JointEstimate.from_dict(j) for j in d["joints"]],
