@@ -69,8 +69,14 @@ def cmd_show(args: argparse.Namespace) -> int:
     for i in idx:
         if not -len(ds) <= i < len(ds):
             raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
-    out = plot_samples([ds[i] for i in idx], args.out)
-    print(f"wrote {out}")
+    if args.out is None and not (args.view or args.view_html):
+        raise UcopeError("give --out PNG, --view or --view-html FILE")
+    if args.out is not None:
+        print(f"wrote {plot_samples([ds[i] for i in idx], args.out)}")
+    if args.view or args.view_html:
+        from .outputs import show_view
+
+        show_view(args, [ds[i] for i in idx])
     return 0
 
 
@@ -99,7 +105,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
             atomic_write_json(out / f"{name}.json", d)
             print(f"{cat} test view {i} ({s['instance_id']}, unseen instance), {res.timings_ms['total']:.0f} ms:")
             print(format_errors(res, err))
-            items.append((s["points"], res, s, f"{name}: predicted (solid) vs ground truth (dashed)"))
+            items.append((s["points"], res, s, f"{name}: predicted (solid) vs ground truth (dashed)", err))
     pic = plot_results(items, out / "demo.png", cols=max(1, args.num))
     print(f"wrote {pic} and one result JSON per view in {out}/ ({time.perf_counter() - t0:.1f} s)")
     return 0
@@ -199,6 +205,8 @@ def format_errors(result, errors: dict) -> str:
     for p, e in zip(result.parts, errors["parts"]):
         lines.append(f"  {p.label:14s} rotation {e['rotation_deg']:6.2f} deg  translation {100 * e['translation_m']:6.2f} cm  3D IoU {e['iou']:.3f}")
     for j, e in zip(result.joints, errors["joints"]):
+        if e is None:  # no ground truth for this joint (BOP)
+            continue
         piv = f"  pivot {100 * e['pivot_m']:5.2f} cm" if e["pivot_m"] is not None else ""
         st = f"{e['state_error']:.2f} deg" if e["state_unit"] == "deg" else f"{100 * e['state_error']:.2f} cm"
         lines.append(f"  joint {j.parent}->{j.child} ({j.type}): axis {e['axis_deg']:5.2f} deg{piv}  state {st}")
@@ -208,18 +216,26 @@ def format_errors(result, errors: dict) -> str:
 def cmd_predict(args: argparse.Namespace) -> int:
     from ..fileio import atomic_write_json
     from ..data.io import read_depth_png, read_intrinsics, read_point_cloud
+    from .outputs import Job, job_im_ids, predict_instances, read_rgb, write_outputs
 
+    if args.instances:
+        return predict_instances(args)
+    if args.model is None:
+        raise UcopeError("--model is required (or --instances ID=MODEL ... for several objects in one frame)")
     est = _estimator(args)
     jobs = []  # (name, points, normals, sample)
+    frame = None  # the RGB-D frame to draw over
     if args.depth is not None:
         from ..estimation.inputs import rgbd_points
 
         if args.intrinsics is None:
             raise UcopeError("--depth needs --intrinsics K.json")
         mask = read_depth_png(args.mask) if args.mask is not None else None
-        pts = rgbd_points(read_depth_png(args.depth), read_intrinsics(args.intrinsics), mask=mask, box=args.box,
-                          depth_scale=args.depth_scale, mask_label=args.mask_label)
+        depth, K = read_depth_png(args.depth), read_intrinsics(args.intrinsics)
+        pts = rgbd_points(depth, K, mask=mask, box=args.box, depth_scale=args.depth_scale, mask_label=args.mask_label)
         jobs_done = [(Path(args.depth).stem, est.predict(pts), pts, None)]
+        frame = {"depth_m": depth.astype(float) / args.depth_scale, "intrinsics": K, "title": Path(args.depth).stem,
+                 "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None}
     else:
         jobs_done = []
         if args.data is not None:
@@ -255,6 +271,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     many = len(jobs_done) > 1
     out = Path(args.out)
     vis_items = []
+    im_ids = job_im_ids([name for name, *_ in jobs_done], args, [s for *_, s in jobs_done])
     for name, res, pts, s in jobs_done:
         path = out / f"{name}.json" if many else out
         d = res.to_dict()
@@ -268,11 +285,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
         print(f"{name}: {len(res.parts)} part(s), {len(res.joints)} joint(s) in {t:.0f} ms -> {path}")
         if s is not None:
             print(format_errors(res, d["errors"]))
-        vis_items.append((pts, res, s, name))
-    if args.vis is not None:
-        from ..estimation.draw import plot_results
-
-        print(f"wrote {plot_results(vis_items, args.vis)}")
+        vis_items.append(Job(name, res, pts, s, d.get("errors"), im_id=im_ids[len(vis_items)]))
+    write_outputs(args, vis_items, frame)
     return 0
 
 
@@ -282,12 +296,20 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from ..eval.evaluate import evaluate, format_report
 
     est = _estimator(args)
-    ds = load_dataset(args.data)
+    args.data = args.data or args.data_dir
+    if args.data is None:
+        raise UcopeError("give the data set: --data DIR (or DIR)")
+    if args.format != "ucope":
+        from .outputs import eval_samples
+
+        ds, info = eval_samples(args, est.category)
+    else:
+        ds = load_dataset(args.data)
+        info = {"path": str(Path(args.data).resolve()), "split": ds.meta.get("split"), "seed": ds.meta.get("seed"),
+                "generator_version": ds.meta.get("generator_version")}
     n = len(ds) if args.num is None else min(len(ds), args.num)
     if n <= 0:
         raise UcopeError(f"--num must be positive, got {args.num}")
-    info = {"path": str(Path(args.data).resolve()), "split": ds.meta.get("split"), "seed": ds.meta.get("seed"),
-            "generator_version": ds.meta.get("generator_version")}
     report = evaluate(est, ds[:n], progress=not args.quiet, data_info=info)
     report["command"] = "ucope " + shlex.join(args.argv)
     out = Path(args.out)
@@ -312,6 +334,7 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     from ..objects.categories import CATEGORY_NAMES
+    from .outputs import add_eval_format_options, add_output_options, add_view_options
 
     p = argparse.ArgumentParser(prog="ucope", description="Universal 9D category-level pose estimation of rigid and articulated objects.")
     p.add_argument("--version", action="version", version=f"ucope {__version__}")
@@ -341,7 +364,8 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("show", help="draw samples of a data set: points by part, GT boxes and joint axes")
     s.add_argument("data", help="data set folder")
     s.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es), default 0")
-    s.add_argument("--out", required=True, help="PNG file to write")
+    s.add_argument("--out", default=None, help="PNG file to write (or --view / --view-html)")
+    add_view_options(s)
     s.set_defaults(func=cmd_show)
 
     t = sub.add_parser("train", help="train a model (single process, or DDP under torchrun)",
@@ -388,7 +412,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     pr = sub.add_parser("predict", help="estimate part poses, joints and segmentation of objects",
                         description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples.")
-    pr.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
+    pr.add_argument("--model", default=None,
+                    help="a shipped model name (e.g. laptop), a run folder or a model .json (required unless --instances)")
     pr.add_argument("--input", help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts), a folder or a glob (quote it)")
     pr.add_argument("--depth", help="depth PNG (16-bit; see --depth-scale)")
     pr.add_argument("--intrinsics", help="camera intrinsics JSON (fx, fy, cx, cy or K / cam_K)")
@@ -399,7 +424,9 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth")
     pr.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es) with --data (default 0)")
     pr.add_argument("--out", required=True, help="result JSON (a folder when there are several inputs)")
-    pr.add_argument("--vis", default=None, help="also draw the estimates into this PNG")
+    pr.add_argument("--vis", default=None,
+                    help="also draw the estimates into this PNG (over the depth image, and the --rgb image)")
+    add_output_options(pr)
     _estimator_options(pr)
     pr.set_defaults(func=cmd_predict)
 
@@ -409,9 +436,11 @@ def build_parser() -> argparse.ArgumentParser:
     ev = sub.add_parser("eval", help="evaluate a model on a (test) data set: Table-2 / Table-1 shaped figures and a JSON report",
                         description="Predict on every sample of --data and measure per-part, joint, segmentation and (rigid) mAP metrics.")
     ev.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
-    ev.add_argument("--data", required=True, help="data set folder (e.g. from `ucope generate --split test`)")
+    ev.add_argument("data_dir", nargs="?", default=None, metavar="DIR", help="the data set folder (or --data DIR)")
+    ev.add_argument("--data", default=None, help="data set folder (e.g. from `ucope generate --split test`; see --format)")
     ev.add_argument("--out", required=True, help="report JSON to write")
     ev.add_argument("--num", type=int, default=None, help="evaluate only the first NUM samples")
+    add_eval_format_options(ev)
     _estimator_options(ev)
     ev.set_defaults(func=cmd_eval)
 
