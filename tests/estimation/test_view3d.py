@@ -87,3 +87,18 @@ def test_html_view_renders_in_a_headless_browser(tmp_path):
     Image.fromarray(img).save(tmp_path / "shot.png")
     # the points and boxes of both parts are drawn in their colours
     assert drawn(img), (_colour_pixels(img, blue), _colour_pixels(img, orange))
+
+
+def test_live_viewer_serves_the_page():
+    pytest.importorskip("viser")
+    import urllib.request
+
+    from ucope.estimation.view3d import show
+
+    r, pts = _laptop_like()
+    server = show([Scene([DrawnObject(r, pts)])], port=0, block=False)
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{server.get_port()}/", timeout=10) as page:
+            assert page.status == 200 and b"<html" in page.read(2000).lower()
+    finally:
+        server.stop()
