@@ -5,8 +5,8 @@ Each file ucope writes names its format, and each reader checks it with both ver
 * :data:`CONVENTIONS_VERSION`: frames, units and per-category canonical frames (docs/conventions.md);
 * :data:`GENERATOR_VERSION`: the procedural generators and the renderer (data sets record it);
 * :data:`DATA_FORMAT_VERSION`: the shard layout of a data set (``meta.json`` + ``shard_NNNNN.npz``);
-* :data:`MODEL_FORMAT`, :data:`CHECKPOINT_FORMAT`, :data:`RESULT_FORMAT`: the JSON format tags of a
-  model, a training checkpoint and a pose result.
+* :data:`MODEL_FORMAT`, :data:`CHECKPOINT_FORMAT`, :data:`RESULT_FORMAT`, :data:`RESULTS_FORMAT`: the
+  JSON format tags of a model, a training checkpoint, a pose result and the results of one frame.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ __all__ = [
     "MODEL_FORMAT",
     "CHECKPOINT_FORMAT",
     "RESULT_FORMAT",
+    "RESULTS_FORMAT",
 ]
 
 __version__ = "0.2.0"
@@ -40,3 +41,6 @@ CHECKPOINT_FORMAT = "ucope-checkpoint/2"
 
 RESULT_FORMAT = "ucope-result/1"
 """Format tag of a pose result JSON (:mod:`ucope.estimation.result`)."""
+
+RESULTS_FORMAT = "ucope-results/1"
+"""Format tag of the JSON of every object's result in one frame (:mod:`ucope.estimation.frame`)."""

@@ -70,8 +70,14 @@ def cmd_show(args: argparse.Namespace) -> int:
     for i in idx:
         if not -len(ds) <= i < len(ds):
             raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
-    out = plot_samples([ds[i] for i in idx], args.out)
-    print(f"wrote {out}")
+    if args.out is None and not (args.view or args.view_html):
+        raise UcopeError("give --out PNG, --view or --view-html FILE")
+    if args.out is not None:
+        print(f"wrote {plot_samples([ds[i] for i in idx], args.out)}")
+    if args.view or args.view_html:
+        from .outputs import show_view
+
+        show_view(args, [ds[i] for i in idx])
     return 0
 
 
@@ -100,7 +106,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
             atomic_write_json(out / f"{name}.json", d)
             print(f"{cat} test view {i} ({s['instance_id']}, unseen instance), {res.timings_ms['total']:.0f} ms:")
             print(format_errors(res, err))
-            items.append((s["points"], res, s, f"{name}: predicted (solid) vs ground truth (dashed)"))
+            items.append((s["points"], res, s, f"{name}: predicted (solid) vs ground truth (dashed)", err))
     pic = plot_results(items, out / "demo.png", cols=max(1, args.num))
     print(f"wrote {pic} and one result JSON per view in {out}/ ({time.perf_counter() - t0:.1f} s)")
     return 0
@@ -202,30 +208,32 @@ def format_errors(result, errors: dict) -> str:
     for p, e in zip(result.parts, errors["parts"]):
         lines.append(f"  {p.label:14s} rotation {e['rotation_deg']:6.2f} deg  translation {100 * e['translation_m']:6.2f} cm  3D IoU {e['iou']:.3f}")
     for j, e in zip(result.joints, errors["joints"]):
+        if e is None:  # no ground truth for this joint (BOP)
+            continue
         piv = f"  pivot {100 * e['pivot_m']:5.2f} cm" if e["pivot_m"] is not None else ""
         st = f"{e['state_error']:.2f} deg" if e["state_unit"] == "deg" else f"{100 * e['state_error']:.2f} cm"
         lines.append(f"  joint {j.parent}->{j.child} ({j.type}): axis {e['axis_deg']:5.2f} deg{piv}  state {st}")
     return "\n".join(lines)
 
 
-def _predict_jobs(args: argparse.Namespace) -> list:
-    """``(name, load)`` per input, ``load() -> (points, normals, sample_or_None, units)``: files are read
-    inside their own job, so that one bad file fails alone."""
+def _predict_jobs(args: argparse.Namespace) -> tuple[list, dict | None]:
+    """``(jobs, frame)``: ``(name, load)`` per input, ``load() -> (points, normals, sample_or_None, units)``
+    (files are read inside their own job, so that one bad file fails alone), and the RGB-D frame to draw
+    over (``--depth``) or ``None``."""
     from ..data.io import read_depth_png, read_intrinsics, read_point_cloud
+    from .outputs import read_rgb
 
     if args.depth is not None:
         from ..estimation.inputs import rgbd_points
 
         if args.intrinsics is None:
             raise UcopeError("--depth needs --intrinsics K.json")
-
-        def load_rgbd():
-            mask = read_depth_png(args.mask) if args.mask is not None else None
-            pts = rgbd_points(read_depth_png(args.depth), read_intrinsics(args.intrinsics), mask=mask, box=args.box,
-                              depth_scale=args.depth_scale, mask_label=args.mask_label)
-            return pts, None, None, "m"
-
-        return [(Path(args.depth).stem, load_rgbd)]
+        mask = read_depth_png(args.mask) if args.mask is not None else None
+        depth, K = read_depth_png(args.depth), read_intrinsics(args.intrinsics)
+        pts = rgbd_points(depth, K, mask=mask, box=args.box, depth_scale=args.depth_scale, mask_label=args.mask_label)
+        frame = {"depth_m": depth.astype(float) / args.depth_scale, "intrinsics": K, "title": Path(args.depth).stem,
+                 "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None}
+        return [(Path(args.depth).stem, lambda: (pts, None, None, "m"))], frame
     if args.data is not None:
         from ..data.dataset import load_dataset
 
@@ -233,9 +241,10 @@ def _predict_jobs(args: argparse.Namespace) -> list:
         for i in args.index or [0]:
             if not -len(ds) <= i < len(ds):
                 raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
-        return [(f"{ds.category}_{i % len(ds):06d}", lambda i=i: (ds[i]["points"], ds[i]["normals"], ds[i], "m")) for i in args.index or [0]]
+        jobs = [(f"{ds.category}_{i % len(ds):06d}", lambda i=i: (ds[i]["points"], ds[i]["normals"], ds[i], "m")) for i in args.index or [0]]
+        return jobs, None
     if args.input is not None:
-        return [(f.stem, lambda f=f: (*read_point_cloud(f), None, args.units)) for f in _expand_inputs(args.input)]
+        return [(f.stem, lambda f=f: (*read_point_cloud(f), None, args.units)) for f in _expand_inputs(args.input)], None
     raise UcopeError("give --input CLOUD (or a folder / glob), --depth D.png --intrinsics K.json, or --data DIR --index I")
 
 
@@ -251,13 +260,18 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
     from ..estimation.inputs import UNITS
     from ..fileio import atomic_write_json
+    from .outputs import Job, job_im_ids, predict_instances, write_outputs
 
     if args.vis is not None:
         from ..plotting import pyplot
 
         pyplot()  # a missing matplotlib is said before any work
+    if args.instances:
+        return predict_instances(args)
+    if args.model is None:
+        raise UcopeError("--model is required (or --instances ID=MODEL ... for several objects in one frame)")
     est = _estimator(args)
-    jobs = _predict_jobs(args)
+    jobs, frame = _predict_jobs(args)
     many = len(jobs) > 1
     bar = None
     if many and not args.quiet:
@@ -267,7 +281,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
             bar = tqdm(total=len(jobs), desc="predict", unit="cloud", file=sys.stderr)
         except ImportError:  # pragma: no cover - tqdm is an optional extra
             bar = None
-    vis_items, failed = [], []
+    done, failed = [], []
     for name, load in jobs:
         try:
             pts, nrm, s, units = load()
@@ -296,13 +310,11 @@ def cmd_predict(args: argparse.Namespace) -> int:
             print(f"  warning: {w}")
         if s is not None:
             print(format_errors(res, d["errors"]))
-        vis_items.append((np.asarray(pts, dtype=np.float64).reshape(-1, 3) * UNITS[units], res, s, name))
+        done.append((name, res, np.asarray(pts, dtype=np.float64).reshape(-1, 3) * UNITS[units], s, d.get("errors")))
     if bar is not None:
         bar.close()
-    if args.vis is not None and vis_items:
-        from ..estimation.draw import plot_results
-
-        print(f"wrote {plot_results(vis_items, args.vis)}")
+    im_ids = job_im_ids([name for name, *_ in done], args, [s for *_, s, _ in done])
+    write_outputs(args, [Job(name, res, pts, s, err, im_id=i) for (name, res, pts, s, err), i in zip(done, im_ids)], frame)
     if failed:
         print(f"ucope predict: {len(failed)} of {len(jobs)} input(s) failed: {', '.join(failed)}", file=sys.stderr)
         return 2
@@ -315,12 +327,20 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from ..eval.evaluate import evaluate, format_report
 
     est = _estimator(args)
-    ds = load_dataset(args.data)
+    args.data = args.data or args.data_dir
+    if args.data is None:
+        raise UcopeError("give the data set: --data DIR (or DIR)")
+    if args.format != "ucope":
+        from .outputs import eval_samples
+
+        ds, info = eval_samples(args, est.category)
+    else:
+        ds = load_dataset(args.data)
+        info = {"path": str(Path(args.data).resolve()), "split": ds.meta.get("split"), "seed": ds.meta.get("seed"),
+                "generator_version": ds.meta.get("generator_version")}
     n = len(ds) if args.num is None else min(len(ds), args.num)
     if n <= 0:
         raise UcopeError(f"--num must be positive, got {args.num}")
-    info = {"path": str(Path(args.data).resolve()), "split": ds.meta.get("split"), "seed": ds.meta.get("seed"),
-            "generator_version": ds.meta.get("generator_version")}
     report = evaluate(est, ds[:n], progress=not args.quiet, data_info=info)
     report["command"] = "ucope " + shlex.join(args.argv)
     out = Path(args.out)
@@ -350,6 +370,7 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     from ..objects.categories import CATEGORY_NAMES
+    from .outputs import add_eval_format_options, add_output_options, add_view_options
 
     p = argparse.ArgumentParser(prog="ucope", description="Universal 9D category-level pose estimation of rigid and articulated objects.")
     p.add_argument("--version", action="version", version=f"ucope {__version__}")
@@ -379,7 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("show", help="draw samples of a data set: points by part, GT boxes and joint axes")
     s.add_argument("data", help="data set folder")
     s.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es), default 0")
-    s.add_argument("--out", required=True, help="PNG file to write")
+    s.add_argument("--out", default=None, help="PNG file to write (or --view / --view-html)")
+    add_view_options(s)
     s.set_defaults(func=cmd_show)
 
     t = sub.add_parser("train", help="train a model (single process, or DDP under torchrun)",
@@ -430,7 +452,8 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples. "
                                     "A cloud is ONE segmented object (not a whole scene) in the CAMERA frame (OpenCV axes: x right, "
                                     "y down, z forward from the camera), in metres unless --units says otherwise. Results are in metres.")
-    pr.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
+    pr.add_argument("--model", default=None,
+                    help="a shipped model name (e.g. laptop), a run folder or a model .json (required unless --instances)")
     pr.add_argument("--input", help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts; organised clouds too), a folder or a "
                                     "glob (quote it): one segmented object in the camera frame")
     pr.add_argument("--units", choices=["m", "cm", "mm"], default="m", help="length unit of the --input clouds (default m)")
@@ -444,7 +467,9 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth")
     pr.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es) with --data (default 0)")
     pr.add_argument("--out", required=True, help="result JSON, or a folder (an existing one, or a path ending with /; always with several inputs)")
-    pr.add_argument("--vis", default=None, help="also draw the estimates into this PNG")
+    pr.add_argument("--vis", default=None,
+                    help="also draw the estimates into this PNG (over the depth image, and the --rgb image)")
+    add_output_options(pr)
     _estimator_options(pr)
     pr.set_defaults(func=cmd_predict)
 
@@ -454,9 +479,11 @@ def build_parser() -> argparse.ArgumentParser:
     ev = sub.add_parser("eval", help="evaluate a model on a (test) data set: Table-2 / Table-1 shaped figures and a JSON report",
                         description="Predict on every sample of --data and measure per-part, joint, segmentation and (rigid) mAP metrics.")
     ev.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
-    ev.add_argument("--data", required=True, help="data set folder (e.g. from `ucope generate --split test`)")
+    ev.add_argument("data_dir", nargs="?", default=None, metavar="DIR", help="the data set folder (or --data DIR)")
+    ev.add_argument("--data", default=None, help="data set folder (e.g. from `ucope generate --split test`; see --format)")
     ev.add_argument("--out", required=True, help="report JSON to write")
     ev.add_argument("--num", type=int, default=None, help="evaluate only the first NUM samples")
+    add_eval_format_options(ev)
     _estimator_options(ev)
     ev.set_defaults(func=cmd_eval)
 

@@ -1,7 +1,7 @@
 """The result of a pose estimate, and its stable JSON form.
 
-JSON form (``format: "ucope-result/1"``; every length in metres, angles in radians, camera frame =
-OpenCV: +x right, +y down, +z forward)::
+JSON form (``format: "ucope-result/1"``, JSON Schema: :func:`result_schema`, docs/formats.md; every
+length in metres, angles in radians, camera frame = OpenCV: +x right, +y down, +z forward)::
 
     {
       "format": "ucope-result/1",
@@ -35,11 +35,21 @@ from typing import Any
 
 import numpy as np
 
-from ..versions import CONVENTIONS_VERSION, RESULT_FORMAT, __version__
-from ..fileio import atomic_write_json, read_json
 from ..errors import DataError
+from ..fileio import atomic_write_json, read_json
+from ..versions import CONVENTIONS_VERSION, RESULT_FORMAT, __version__
 
-__all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult"]
+__all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult", "result_schema", "SCHEMA_FILE"]
+
+SCHEMA_FILE = Path(__file__).with_name("result.schema.json")
+"""The JSON Schema (draft 2020-12) of ``ucope-result/1`` and ``ucope-results/1``, shipped in the package."""
+
+
+def result_schema() -> dict:
+    """The JSON Schema (draft 2020-12) of a result file: one object's ``ucope-result/1`` or one frame's
+    ``ucope-results/1`` (``$defs/result`` and ``$defs/results``). Validate with any JSON Schema library,
+    e.g. ``jsonschema.validate(json.load(f), result_schema())``; docs/formats.md describes every field."""
+    return read_json(SCHEMA_FILE)
 
 
 def _floats(a, ndigits: int = 7) -> Any:
@@ -66,8 +76,8 @@ class PartEstimate:
 
     @classmethod
     def from_dict(cls, d: dict) -> "PartEstimate":
-        return cls(index=int(d["index"]), label=str(d["label"]), cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4),
-                   size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
+        return cls(index=int(d["index"]), label=str(d["label"]),
+                   cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4), size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
                    symmetry=str(d.get("symmetry", "none")), num_votes=int(d.get("num_votes", 0)))
 
 
@@ -149,7 +159,8 @@ class PoseResult:
     @classmethod
     def from_dict(cls, d: dict) -> "PoseResult":
         if not isinstance(d, dict) or d.get("format") != RESULT_FORMAT:
-            raise DataError(f"not a ucope result (format {d.get('format') if isinstance(d, dict) else None!r}, expected {RESULT_FORMAT!r})")
+            found = d.get("format") if isinstance(d, dict) else None
+            raise DataError(f"not a ucope result (format {found!r}, expected {RESULT_FORMAT!r})")
         try:
             return cls(category=str(d["category"]), parts=[PartEstimate.from_dict(p) for p in d["parts"]],
                        joints=[JointEstimate.from_dict(j) for j in d["joints"]],
@@ -176,3 +187,50 @@ class PoseResult:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "PoseResult":
         return cls.from_dict(read_json(path))
+
+    def plot(self, points=None, depth=None, rgb=None, intrinsics=None, sample: dict | None = None, errors: dict | None = None,
+             depth_scale: float = 1000.0, title: str = "", out: str | os.PathLike | None = None) -> np.ndarray:
+        """A picture of this estimate, as ``ultralytics``' ``results.plot()``: an ``(H, W, 3)`` uint8 RGB array.
+
+        The depth image (and the RGB image when given) with every part's box, axis triad (x red, y
+        green, z blue) and joint axes projected over it, a legend with part colours and scores (and
+        errors), and a 3D panel (:mod:`ucope.estimation.draw`). Needs matplotlib (``ucope[viz]``).
+
+        Args:
+            points: ``(N, 3)`` the cloud the estimate was made from (camera frame, metres); coloured by
+                ``part_labels`` in the 3D panel, and splatted into a depth image when ``depth`` is not given.
+            depth: ``(H, W)`` depth image in raw units (``depth / depth_scale`` = metres, 0 = none).
+            rgb: ``(H, W, 3)`` uint8 colour image of the same camera.
+            intrinsics: ``(fx, fy, cx, cy)`` or a 3x3 K; needed with ``depth`` / ``rgb``; without one
+                (and without a ``sample``) a virtual camera is fitted to the cloud.
+            sample: the ground truth (a data-set sample dict: ``cam_from_part``, ``size_m``,
+                ``joint_pivot``, ``joint_axis``; dashed in the picture).
+            errors: :func:`ucope.eval.evaluate.sample_errors` of this result against ``sample`` (listed
+                in the legend).
+            out: also write the picture to this PNG (atomically).
+
+        Raises:
+            InputError: ``depth`` without intrinsics, images of different sizes, nothing to draw.
+        """
+        from ..errors import InputError
+        from .draw import DrawnObject, Scene, render_scenes
+
+        depth_m = None
+        if depth is not None:
+            depth_m = np.asarray(depth, dtype=np.float64) / float(depth_scale)
+            if depth_m.ndim != 2:
+                raise InputError(f"depth must be an (H, W) image, got shape {depth_m.shape}")
+        if rgb is not None:
+            rgb = np.asarray(rgb)
+            if rgb.ndim != 3 or rgb.shape[2] not in (3, 4):
+                raise InputError(f"rgb must be an (H, W, 3) image, got shape {rgb.shape}")
+            rgb = rgb[..., :3]
+            if depth_m is not None and rgb.shape[:2] != depth_m.shape:
+                raise InputError(f"rgb is {rgb.shape[:2]}, depth {depth_m.shape}: they must be images of one camera")
+            if depth_m is None:  # an RGB image alone: draw over it, with the cloud's depth beside it
+                if intrinsics is None:
+                    raise InputError("an RGB image needs its camera's intrinsics to draw the estimate over it")
+        scene = Scene([DrawnObject(self, points, sample, errors)], title=title or (self.model or self.category),
+                      depth_m=depth_m, rgb=rgb, intrinsics=intrinsics)
+        img = render_scenes([scene], out=out)
+        return img

@@ -89,8 +89,9 @@ def sample_errors(result, sample: Mapping) -> dict:
                          f"{K} / {len(sample['joint_type'])}: model and data set are of different categories")
     parts = [part_errors(p.cam_from_part, p.size_m, sample["cam_from_part"][k], sample["size_m"][k], p.symmetry)
              for k, p in enumerate(result.parts)]
+    # A joint whose ground-truth axis is unknown (NaN: BOP scenes have no joints) is not measured (None).
     joints = [joint_errors(j.axis, j.pivot_m, j.state, sample["joint_axis"][i], sample["joint_pivot"][i],
-                           sample["joint_state"][i], j.type)
+                           sample["joint_state"][i], j.type) if np.all(np.isfinite(sample["joint_axis"][i])) else None
               for i, j in enumerate(result.joints)]
     seg_iou = seg_acc = None
     if K > 1:

@@ -1,0 +1,311 @@
+"""What ``ucope predict`` / ``show`` / ``eval`` do with results beyond their JSON: pictures (``--vis``),
+the 3D viewer (``--view``, ``--view-html``), the BOP results CSV (``--bop-csv``), several objects per
+frame (``--instances``) and data sets in other formats (``eval --format``). Kept apart from
+:mod:`ucope.cli.main` so that its sub-commands only call in here."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UcopeError
+
+__all__ = [
+    "add_output_options",
+    "add_view_options",
+    "add_eval_format_options",
+    "Job",
+    "write_outputs",
+    "predict_instances",
+    "eval_samples",
+    "show_view",
+    "truth_result",
+]
+
+
+class Job:
+    """One estimated object for the outputs: its name, result, cloud, ground truth and errors, and the
+    BOP image id it belongs to."""
+
+    def __init__(self, name: str, result, points, sample=None, errors=None, im_id: int = 0, obj_id: int | None = None):
+        self.name, self.result, self.points, self.sample, self.errors = name, result, points, sample, errors
+        self.im_id, self.obj_id = int(im_id), obj_id
+
+
+def add_view_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--view", action="store_true", help='open the 3D viewer in the browser (needs "ucope[view]"; Ctrl-C stops it)')
+    p.add_argument("--view-html", default=None, metavar="FILE", help="write the 3D view as one self-contained HTML file")
+    p.add_argument("--view-port", type=int, default=8080, help="port of the --view server (default 8080)")
+    p.add_argument("--view-host", default="127.0.0.1", help="address the --view server listens on (default 127.0.0.1)")
+
+
+def add_output_options(p: argparse.ArgumentParser) -> None:
+    """The options of :func:`write_outputs` and :func:`predict_instances` (for ``ucope predict``)."""
+    p.add_argument("--rgb", default=None, help="colour image of the --depth frame: --vis also draws the estimates over it")
+    p.add_argument(
+        "--instances",
+        nargs="+",
+        default=None,
+        metavar="ID=MODEL",
+        help="several objects in one frame: --mask is an instance mask, each ID (a mask value) estimated by its MODEL; "
+        "--out is one JSON with all of them (ucope-results/1)",
+    )
+    add_view_options(p)
+    p.add_argument(
+        "--bop-csv",
+        default=None,
+        metavar="FILE",
+        help="also write the estimates as a BOP results CSV (obj_id of part k = base + k)",
+    )
+    p.add_argument("--bop-scene-id", type=int, default=0, help="BOP scene_id of the rows (default 0)")
+    p.add_argument(
+        "--bop-im-id",
+        type=int,
+        default=None,
+        help="BOP im_id of the rows (default: the sample index with --data, the file name when it is a number, "
+        "else the input's position)",
+    )
+    p.add_argument(
+        "--bop-obj-id",
+        type=int,
+        default=None,
+        help="BOP obj_id of part 0 (default 1; with --instances, the instance id); part k gets this + k",
+    )
+
+
+def add_eval_format_options(p: argparse.ArgumentParser) -> None:
+    """The options of :func:`eval_samples` (for ``ucope eval``)."""
+    p.add_argument(
+        "--format",
+        choices=["ucope", "nocs", "artimage", "bop"],
+        default="ucope",
+        help="data set format: ucope (ucope generate, default), nocs (CAMERA25 / REAL275 frames), artimage, bop "
+        "(docs/formats.md)",
+    )
+    p.add_argument("--intrinsics", default=None, help="with --format nocs: intrinsics JSON overriding CAMERA's / REAL275's")
+    p.add_argument(
+        "--bop-obj-id", type=int, default=1, help="with --format bop: the obj_id of part 0 (part k is this + k; default 1)"
+    )
+    p.add_argument(
+        "--models-info", default=None, help="with --format bop: the models_info.json holding the object boxes (default: searched)"
+    )
+
+
+def _im_id(name: str, position: int) -> int:
+    return int(name) if name.isdigit() else position
+
+
+def job_im_ids(names: list[str], args: argparse.Namespace, samples: list | None = None) -> list[int]:
+    """The BOP ``im_id`` of each job (see ``--bop-im-id``)."""
+    if args.bop_im_id is not None:
+        return [int(args.bop_im_id)] * len(names)
+    if samples is not None and all(s is not None for s in samples):
+        return [int(s.get("index", i)) for i, s in enumerate(samples)]
+    return [_im_id(n, i) for i, n in enumerate(names)]
+
+
+def _scenes(jobs: list[Job], frame: dict | None):
+    from ..estimation.draw import DrawnObject, Scene
+
+    if frame is not None:  # one frame: every job is an object of it
+        return [
+            Scene(
+                [DrawnObject(j.result, j.points, j.sample, j.errors, name=j.name if len(jobs) > 1 else "") for j in jobs],
+                title=frame.get("title", ""),
+                depth_m=frame.get("depth_m"),
+                rgb=frame.get("rgb"),
+                intrinsics=frame.get("intrinsics"),
+            )
+        ]
+    return [Scene([DrawnObject(j.result, j.points, j.sample, j.errors)], title=j.name) for j in jobs]
+
+
+def write_outputs(args: argparse.Namespace, jobs: list[Job], frame: dict | None = None) -> None:
+    """``--vis`` PNG, ``--bop-csv``, ``--view-html`` and ``--view`` (last: it blocks) of estimated jobs.
+
+    ``frame``: when the jobs are the objects of one RGB-D frame, ``{"depth_m", "rgb", "intrinsics", "title"}``
+    to draw them over it."""
+    jobs = [j for j in jobs if j.result is not None]
+    if not jobs:
+        return
+    scenes = None
+    if getattr(args, "vis", None):
+        from ..estimation.draw import plot_scenes
+
+        scenes = _scenes(jobs, frame)
+        print(f"wrote {plot_scenes(scenes, args.vis)}")
+    if getattr(args, "bop_csv", None):
+        from ..estimation.export import frame_bop_rows, write_bop_csv
+
+        by_image: dict[int, list] = {}
+        for j in jobs:
+            base = j.obj_id if j.obj_id is not None else (args.bop_obj_id if args.bop_obj_id is not None else 1)
+            by_image.setdefault(j.im_id, []).append((j.result, int(base)))
+        rows = [r for im, objs in sorted(by_image.items()) for r in frame_bop_rows(objs, args.bop_scene_id, im)]
+        print(f"wrote {write_bop_csv(args.bop_csv, rows)} ({len(rows)} rows: one per part; obj_id of part k = base + k)")
+    if getattr(args, "view_html", None) or getattr(args, "view", False):
+        from ..estimation.view3d import show, write_html
+
+        scenes = scenes or _scenes(jobs, frame)
+        if args.view_html:
+            print(f"wrote {write_html(scenes, args.view_html)} (open it in a browser)")
+        if args.view:
+            show(scenes, host=args.view_host, port=args.view_port, block=True)
+
+
+def read_rgb(path: str, shape: tuple[int, int] | None) -> np.ndarray:
+    """An RGB image ``(H, W, 3)`` uint8 of the depth's size ``shape``."""
+    from ..data.readers._common import read_image
+
+    img = read_image(path, "RGB image")
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, axis=2)
+    if img.ndim != 3 or img.shape[2] not in (3, 4):
+        raise UcopeError(f"{path}: an RGB image must have 3 channels, got shape {img.shape}")
+    if shape is not None and img.shape[:2] != tuple(shape):
+        raise UcopeError(f"{path}: the RGB image is {img.shape[1]}x{img.shape[0]}, the depth image {shape[1]}x{shape[0]}")
+    if img.dtype != np.uint8:
+        img = (img / max(1, int(img.max())) * 255).astype(np.uint8)
+    return img[..., :3]
+
+
+def predict_instances(args: argparse.Namespace) -> int:
+    """``ucope predict --instances ID=MODEL ... --depth D --mask M --intrinsics K``: one JSON for all."""
+    from ..data.io import read_depth_png, read_intrinsics
+    from ..estimation.frame import parse_instance_models, predict_frame
+
+    if args.depth is None or args.mask is None or args.intrinsics is None:
+        raise UcopeError("--instances needs --depth D.png, --mask INSTANCES.png and --intrinsics K.json")
+    models = parse_instance_models(args.instances)
+    if args.model is not None:
+        raise UcopeError("give either --model (one object) or --instances ID=MODEL ... (several), not both")
+    depth = read_depth_png(args.depth)
+    mask = read_depth_png(args.mask)
+    K = read_intrinsics(args.intrinsics)
+    opts = dict(
+        num_pairs=args.pairs,
+        awareness=not args.no_awareness,
+        refine=args.refine,
+        seed=args.seed,
+        resolve_flips=not args.keep_flips,
+        device=args.device,
+        score_filter=False if args.no_score_filter else None,
+        segment_pairs=False if args.pairs_from_cloud else None,
+    )
+    fr = predict_frame(
+        depth,
+        K,
+        mask,
+        models,
+        depth_scale=args.depth_scale,
+        estimator_options=opts,
+        source={"depth": str(args.depth), "mask": str(args.mask), "rgb": args.rgb},
+    )
+    out = fr.save(args.out)
+    for o in fr.objects:
+        if o.result is None:
+            print(f"instance {o.instance_id} ({o.model}): no estimate: {o.error}")
+        else:
+            print(
+                f"instance {o.instance_id} ({o.model}): {len(o.result.parts)} part(s), {len(o.result.joints)} joint(s) in "
+                f"{o.result.timings_ms.get('total', 0.0):.0f} ms"
+            )
+    print(f"wrote {out} ({len(fr.results)} of {len(fr.objects)} objects estimated)")
+    stem = Path(args.depth).stem
+    im_id = args.bop_im_id if args.bop_im_id is not None else _im_id(stem, 0)
+    jobs = [
+        Job(
+            f"{o.instance_id}: {o.model}",
+            o.result,
+            o.points,
+            im_id=im_id,
+            obj_id=o.instance_id if args.bop_obj_id is None else None,
+        )
+        for o in fr.objects
+    ]
+    frame = {
+        "depth_m": depth.astype(np.float64) / args.depth_scale,
+        "intrinsics": K,
+        "title": stem,
+        "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None,
+    }
+    write_outputs(args, jobs, frame)
+    return 0
+
+
+def eval_samples(args: argparse.Namespace, category: str) -> tuple[list[dict], dict]:
+    """The samples of ``ucope eval --format nocs|artimage|bop DIR`` for a model of ``category``, and what
+    the report records about the data."""
+    from ..data.readers import read_samples
+
+    kw: dict = {}
+    if args.format == "nocs" and args.intrinsics is not None:
+        from ..data.io import read_intrinsics
+
+        kw["intrinsics"] = read_intrinsics(args.intrinsics)
+    if args.format == "bop":
+        kw.update(obj_id=args.bop_obj_id, models_info=args.models_info)
+    samples = read_samples(args.format, args.data, category, **kw)
+    if not samples:
+        raise UcopeError(f"{args.data} holds no {category} objects in {args.format} format")
+    info = {"path": str(Path(args.data).resolve()), "format": args.format}
+    if args.format == "bop":
+        info["obj_id"] = args.bop_obj_id
+    return samples, info
+
+
+def truth_result(sample: dict):
+    """A data-set sample's ground truth as a :class:`PoseResult` (score 1), to draw it like an estimate."""
+    from ..estimation.result import JointEstimate, PartEstimate, PoseResult
+    from ..objects.categories import get_category, make_instance
+    from ..vocab import JointType
+
+    cat = str(sample.get("category", ""))
+    J = len(np.asarray(sample.get("joint_type", [])))
+    try:
+        spec = get_category(cat)
+        names, sym = spec.part_names, spec.symmetry
+        links = [(j.parent, j.child) for j in make_instance(cat, "test", 0).joints]
+    except UcopeError:
+        K = len(sample["size_m"])
+        names, sym = tuple(f"part {k}" for k in range(K)), ("none",) * K
+        links = [(0, i + 1) for i in range(J)]
+    T = np.asarray(sample["cam_from_part"], np.float64)
+    parts = [PartEstimate(k, names[k], T[k], np.asarray(sample["size_m"][k], np.float64), 1.0, sym[k]) for k in range(len(T))]
+    joints = []
+    for i, code in enumerate(np.asarray(sample.get("joint_type", []), np.int64)):
+        jt = JointType.parse(int(code)).label
+        piv = np.asarray(sample["joint_pivot"][i], np.float64)
+        joints.append(
+            JointEstimate(
+                jt,
+                links[i][0],
+                links[i][1],
+                piv if jt == "revolute" else None,
+                np.asarray(sample["joint_axis"][i], np.float64),
+                float(sample["joint_state"][i]),
+                1.0,
+            )
+        )
+    return PoseResult(
+        cat, parts, joints, np.asarray(sample["part_labels"], np.int64), model="ground truth", num_points=len(sample["points"])
+    )
+
+
+def show_view(args: argparse.Namespace, samples: list[dict]) -> None:
+    """``ucope show DIR --view / --view-html``: the samples' clouds, boxes and joints in the 3D viewer."""
+    from ..estimation.draw import DrawnObject, Scene
+    from ..estimation.view3d import show, write_html
+
+    scenes = [
+        Scene([DrawnObject(truth_result(s), s["points"], truth=True)], title=f"{s['category']} #{s['index']}") for s in samples
+    ]
+    if args.view_html:
+        print(f"wrote {write_html(scenes, args.view_html)} (open it in a browser)")
+    if args.view:
+        show(scenes, host=args.view_host, port=args.view_port, block=True)
+    if not (args.view or args.view_html):  # pragma: no cover - the caller checks
+        print("nothing to show", file=sys.stderr)

@@ -1,0 +1,221 @@
+"""Several objects in one frame: an instance mask with several ids, each with its model, in one call.
+
+:func:`predict_frame` back-projects each instance's pixels of a depth image (:func:`rgbd_points`), runs
+its model's :class:`Estimator` on them and returns a :class:`FrameResult`: one :class:`FrameObject`
+per instance (its id, model, result, or why it has none), saved as one JSON file
+(``format: "ucope-results/1"``, schema ``$defs/results`` of :func:`ucope.estimation.result.result_schema`)::
+
+    {"format": "ucope-results/1", "ucope_version": "0.2.0",
+     "objects": [{"instance_id": 1, "model": "mug", "num_pixels": 5321, "result": {...ucope-result/1...}},
+                 {"instance_id": 2, "model": "laptop", "num_pixels": 12, "result": null,
+                  "error": "..."}],
+     "source": {"depth": ..., "mask": ..., "intrinsics": [fx, fy, cx, cy], "image_size": [W, H], "depth_scale": 1000.0},
+     "timings_ms": {"total": ...}}
+
+Frames and units: camera frame (OpenCV), metres; the depth image in raw units (``depth / depth_scale``
+= metres).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError, InputError
+from ..fileio import atomic_write_json, read_json
+from ..versions import RESULTS_FORMAT, __version__
+from .inputs import rgbd_points
+from .result import PoseResult
+
+__all__ = ["RESULTS_FORMAT", "FrameObject", "FrameResult", "predict_frame", "parse_instance_models"]
+
+
+@dataclass
+class FrameObject:
+    """One instance of a frame: its id in the instance mask, the model that estimated it, its result
+    (``None`` when it could not be estimated, ``error`` then says why) and its measured pixels."""
+
+    instance_id: int
+    model: str
+    result: PoseResult | None
+    num_pixels: int = 0
+    error: str | None = None
+    points: np.ndarray | None = field(default=None, repr=False)  # (N, 3) the cloud it was estimated from (not saved)
+
+    def to_dict(self) -> dict:
+        d = {
+            "instance_id": int(self.instance_id),
+            "model": self.model,
+            "num_pixels": int(self.num_pixels),
+            "result": None if self.result is None else self.result.to_dict(),
+        }
+        if self.error is not None:
+            d["error"] = self.error
+        return d
+
+
+@dataclass
+class FrameResult:
+    """Every object of one frame (see the module docstring for the JSON form)."""
+
+    objects: list[FrameObject]
+    source: dict = field(default_factory=dict)
+    timings_ms: dict = field(default_factory=dict)
+
+    @property
+    def results(self) -> list[PoseResult]:
+        """The results of the objects that have one, in instance order."""
+        return [o.result for o in self.objects if o.result is not None]
+
+    def to_dict(self) -> dict:
+        return {
+            "format": RESULTS_FORMAT,
+            "objects": [o.to_dict() for o in self.objects],
+            "source": dict(self.source),
+            "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
+            "ucope_version": __version__,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FrameResult":
+        if not isinstance(d, dict) or d.get("format") != RESULTS_FORMAT:
+            raise DataError(
+                f"not a ucope frame result (format {d.get('format') if isinstance(d, dict) else None!r}, "
+                f"expected {RESULTS_FORMAT!r})"
+            )
+        try:
+            objs = [
+                FrameObject(
+                    instance_id=int(o["instance_id"]),
+                    model=str(o["model"]),
+                    result=None if o.get("result") is None else PoseResult.from_dict(o["result"]),
+                    num_pixels=int(o.get("num_pixels", 0)),
+                    error=o.get("error"),
+                )
+                for o in d["objects"]
+            ]
+        except (KeyError, TypeError, ValueError) as e:
+            raise DataError(f"malformed ucope frame result: {e}") from None
+        return cls(objs, dict(d.get("source", {})), dict(d.get("timings_ms", {})))
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the JSON form to ``path`` atomically (folders created)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(path, self.to_dict())
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "FrameResult":
+        return cls.from_dict(read_json(path))
+
+
+def parse_instance_models(specs) -> dict[int, str]:
+    """``{instance id: model}`` from ``["1=mug", "2=laptop"]`` (the ``--instances`` option).
+
+    Raises :class:`InputError` naming the bad entry (not ``ID=MODEL``, a non-integer or negative id,
+    an id given twice)."""
+    out: dict[int, str] = {}
+    for spec in specs:
+        key, sep, model = str(spec).partition("=")
+        try:
+            iid = int(key)
+        except ValueError:
+            iid = -1
+        if not sep or not model or iid < 0:
+            raise InputError(f"--instances entries look like ID=MODEL (a mask value and a model, e.g. 1=mug), got {spec!r}")
+        if iid in out:
+            raise InputError(f"instance id {iid} is given twice ({out[iid]} and {model})")
+        out[iid] = model
+    if not out:
+        raise InputError("give at least one ID=MODEL instance")
+    return out
+
+
+def predict_frame(
+    depth,
+    intrinsics,
+    instance_mask,
+    models: Mapping[int, object],
+    depth_scale: float = 1000.0,
+    estimator_options: Mapping | None = None,
+    keep_going: bool = True,
+    source: Mapping | None = None,
+) -> FrameResult:
+    """Estimate every instance of a frame with its own model.
+
+    Args:
+        depth: ``(H, W)`` depth image, raw units (``depth / depth_scale`` = metres, 0 = none).
+        intrinsics: ``(fx, fy, cx, cy)`` or a 3x3 K.
+        instance_mask: ``(H, W)`` integer image; the pixels of instance ``i`` hold ``i``.
+        models: ``{instance id: model}``, a model being a shipped model name, a run folder / model JSON,
+            or an :class:`~ucope.estimation.estimator.Estimator`. Instances of the same model share one
+            loaded estimator.
+        estimator_options: keyword arguments of :meth:`Estimator.load` for models given by name.
+        keep_going: an instance that cannot be estimated (no or too few measured pixels) gets
+            ``result=None`` and an ``error``; ``False`` raises instead.
+        source: what to record under ``"source"`` (file names...); intrinsics, image size and depth
+            scale are added.
+
+    Returns:
+        a :class:`FrameResult` with one object per entry of ``models``, in increasing id order.
+
+    Raises:
+        InputError: shapes that differ, a mask that is not an integer image, an id absent from the
+            mask (naming it and the ids the mask holds), a model that cannot be loaded.
+    """
+    from .estimator import Estimator
+
+    t0 = time.perf_counter()
+    d = np.asarray(depth)
+    m = np.asarray(instance_mask)
+    if d.ndim != 2:
+        raise InputError(f"depth must be an (H, W) image, got shape {d.shape}")
+    if m.shape != d.shape:
+        raise InputError(f"the instance mask is {m.shape}, the depth image {d.shape}: they must be the same size")
+    if not np.issubdtype(m.dtype, np.integer):
+        raise InputError(f"the instance mask must hold integer ids, got dtype {m.dtype}")
+    if not models:
+        raise InputError("no instances given: pass {instance id: model}")
+    present = np.unique(m)
+    missing = sorted(int(i) for i in models if int(i) not in set(present.tolist()))
+    if missing:
+        raise InputError(f"instance id(s) {missing} do not occur in the instance mask (it holds {present.tolist()})")
+    opts = dict(estimator_options or {})
+    cache: dict[str, Estimator] = {}
+    objects = []
+    for iid in sorted(models, key=int):
+        spec = models[iid]
+        if isinstance(spec, Estimator):
+            est, name = spec, spec.name
+        else:
+            name = str(spec)
+            if name not in cache:
+                cache[name] = Estimator.load(name, **opts)
+            est = cache[name]
+        sel = m == int(iid)
+        valid = sel & np.isfinite(d) & (d > 0)
+        npix = int(np.count_nonzero(valid))
+        try:
+            pts = rgbd_points(d, intrinsics, mask=sel, depth_scale=depth_scale)
+            res = est.predict(pts)
+            objects.append(FrameObject(int(iid), name, res, npix, points=pts))
+        except InputError as e:
+            if not keep_going:
+                raise InputError(f"instance {iid} ({name}): {e}") from None
+            objects.append(FrameObject(int(iid), name, None, npix, error=str(e)))
+    K = np.asarray(intrinsics, np.float64)
+    if K.shape == (3, 3):
+        K = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+    src = dict(source or {})
+    src.update(
+        intrinsics=[float(v) for v in K.reshape(-1)[:4]],
+        image_size=[int(d.shape[1]), int(d.shape[0])],
+        depth_scale=float(depth_scale),
+    )
+    return FrameResult(objects, src, {"total": 1e3 * (time.perf_counter() - t0)})
