@@ -30,7 +30,7 @@ def screenshot(url: str, until: Callable[[np.ndarray], bool], size=(800, 600), t
     from PIL import Image
     from websockets.sync.client import connect
 
-    with tempfile.TemporaryDirectory() as profile:
+    with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as profile:  # chromium helpers may still write
         proc = subprocess.Popen(
             [
                 chromium(),

@@ -1,7 +1,7 @@
 """Every command and Python snippet of README.md runs as written (so the README cannot rot).
 
-The code blocks are run in README order in a scratch folder, after writing the input files a user
-would bring (``cloud.ply``, ``cloud.npy``, ``clouds/*.npy``). Commands that would take minutes get size
+The code blocks are run in README order in a scratch folder holding a copy of the repository's
+``examples/`` (the inputs the README's commands use). Commands that would take minutes get size
 overrides appended (argparse keeps the last value): ``generate --num``, ``train --steps``, ``eval
 --num``; everything else runs exactly as printed. ``make`` lines are the set-up itself (CI runs
 ``make test``; ``make demo`` is covered by tests/cli/test_demo.py).
@@ -11,16 +11,14 @@ from __future__ import annotations
 
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
-import trimesh
 
 from ucope.cli.main import main
-from ucope.data.generate import GenerateConfig, make_sample
 from ucope.model.checkpoint import list_pretrained
 
 README = Path(__file__).resolve().parent.parent / "README.md"
@@ -58,14 +56,7 @@ def test_the_readme_has_the_documented_sections():
 @pytest.mark.skipif(not {"laptop", "mug"} <= set(list_pretrained()), reason="needs the shipped laptop and mug models")
 def test_every_readme_command_runs(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    # The inputs a user brings: one mug cloud (.ply and .npy) and a folder of laptop clouds.
-    mug = make_sample(GenerateConfig(category="mug", split="test", num=1, views_per_instance=1), 0)
-    trimesh.PointCloud(mug["points"]).export(tmp_path / "cloud.ply")
-    np.save(tmp_path / "cloud.npy", mug["points"])
-    (tmp_path / "clouds").mkdir()
-    gen = GenerateConfig(category="laptop", split="test", num=2, views_per_instance=1)
-    for i in range(2):
-        np.save(tmp_path / "clouds" / f"view{i}.npy", make_sample(gen, i)["points"])
+    shutil.copytree(README.parent / "examples", tmp_path / "examples")  # the inputs the README uses, as a clone has them
 
     ran = []
     for lang, code in readme_blocks():
@@ -90,6 +81,6 @@ def test_every_readme_command_runs(tmp_path, monkeypatch, capsys):
     text = capsys.readouterr().out
     assert len(ran) >= 15, ran
     assert Path("result.json").is_file() and Path("result.png").is_file()
-    assert sorted(p.name for p in Path("results").iterdir()) == ["view0.json", "view1.json"]
+    assert sorted(p.name for p in Path("results").iterdir()) == ["laptop_0.json", "laptop_1.json"]
     assert Path("frame.json").is_file() and Path("reports/laptop.json").is_file() and Path("one.png").is_file()
     assert "rotation" in text  # ucope eval / predict --data print the errors

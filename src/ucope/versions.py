@@ -27,11 +27,12 @@ __version__ = "0.2.0"
 CONVENTIONS_VERSION = "1"
 """Version of the frames / units / per-category canonical frames documented in docs/conventions.md."""
 
-GENERATOR_VERSION = "1"
-"""Version of the procedural generators and renderer; data sets record it in meta.json."""
+GENERATOR_VERSION = "2"
+"""Version of the procedural generators and renderer; data sets record it in meta.json. 2: views may get a
+distractor right next to the object (``GenerateConfig.adjacent_distractor``) and keep their background pool."""
 
-DATA_FORMAT_VERSION = 1
-"""Version of the on-disk shard layout (:mod:`ucope.data.shards`)."""
+DATA_FORMAT_VERSION = 2
+"""Version of the on-disk shard layout (:mod:`ucope.data.shards`); 2: optional background pools."""
 
 MODEL_FORMAT = "ucope-model/2"
 """Format tag of a model JSON (:mod:`ucope.model.checkpoint`); 2: the category priors live in the model."""

@@ -1,4 +1,5 @@
 import json
+import math
 import os
 import subprocess
 import sys
@@ -138,3 +139,27 @@ def test_torchrun_ddp_two_processes_end_with_identical_parameters(tmp_path):
     net, _ = load_model(tmp_path / "ddp")
     assert parameter_digest(net) == digests[0]
     assert card["epochs"] == pytest.approx(1.5)  # 8 samples / (2 per rank x 2 ranks) = 2 steps per epoch
+
+
+def test_augmented_training_learns_a_background_class(tmp_path):
+    """Corrupted items (floor, neighbour and outlier points labelled as the background class, noise,
+    occlusion, fewer points) train without error; the model then segments K + 1 classes; resume is exact."""
+    card = train(tiny_train_config(tmp_path / "aug", augment=1.0, steps=4, checkpoint_every=2))
+    net, meta = load_model(tmp_path / "aug")
+    assert net.cfg.background_class and net.num_classes == 3 and meta["config"]["background_class"]
+    assert card["train_config"]["augment"] == 1.0
+    out = net(torch.zeros(1, 256, 3).uniform_(-0.2, 0.2) + torch.tensor([0.0, 0.0, 0.8]), torch.nn.functional.normalize(torch.randn(1, 256, 3), dim=-1))
+    assert out["seg_logits"].shape == (1, 256, 3) and out["masks"].shape == (1, 256, 2)
+    rows = [json.loads(x) for x in (tmp_path / "aug" / "metrics.jsonl").read_text().splitlines()]
+    assert all(math.isfinite(r["train/loss"]) for r in rows if "train/loss" in r)
+
+
+def test_fine_tuning_adds_the_background_class_and_keeps_the_part_rows(tmp_path):
+    train(tiny_train_config(tmp_path / "base", steps=2))
+    base, _ = load_model(tmp_path / "base")
+    card = train(tiny_train_config(tmp_path / "tuned", steps=2, init_from=str(tmp_path / "base"), augment=0.5, lr=1e-12))
+    tuned, _ = load_model(tmp_path / "tuned")
+    assert not base.cfg.background_class and tuned.cfg.background_class
+    assert card["initialised_from"]["reinitialised"] == ["mask_head.2.weight", "mask_head.2.bias"]
+    w0, w1 = base.state_dict()["mask_head.2.weight"], tuned.state_dict()["mask_head.2.weight"]
+    assert w1.shape[0] == w0.shape[0] + 1 and torch.allclose(w1[:2], w0, atol=1e-6)  # the parts' rows kept (lr ~ 0)

@@ -189,3 +189,30 @@ def test_a_rigid_part_turned_half_a_turn_is_turned_back_by_its_shape(half_turn):
                 np.testing.assert_allclose(fixed[0, :3, 3], T[0, :3, 3])
             elif category == "bottle":
                 assert not which.any() and np.allclose(fixed, bad)
+
+
+def test_states_outside_the_limits_are_clamped_and_the_child_moves_with_them():
+    from ucope.geometry.kinematics import joint_state_from_poses
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+    from ucope.voting.kinematic import clamp_joint_states
+
+    parts = (PartPrior("base", "none", 0.3, (0.3, 0.1, 0.3)), PartPrior("drawer", "none", 0.3, (0.2, 0.1, 0.25)))
+    pri = CategoryPriors("toy", parts, (JointPrior("prismatic", 0, 1, (0, 0, 1), limits=(0.0, 0.2)),), norm_scale_m=0.3)
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[1, :3, 3] = [0.0, 0.0, 0.35]
+    u = np.array([[0.0, 0.0, 1.0]])
+    q = joint_state_from_poses(T[0], T[1], u[0], "prismatic", parts[0].mean_size_m, parts[1].mean_size_m)
+    T2, q2, clamped = clamp_joint_states(T, u, np.full((1, 3), np.nan), np.array([q]), pri)
+    assert clamped[0] and q2[0] == pytest.approx(0.2)
+    assert joint_state_from_poses(T2[0], T2[1], u[0], "prismatic", parts[0].mean_size_m, parts[1].mean_size_m) == pytest.approx(0.2)
+    # a revolute joint voted about the reversed axis: its state is clamped in the canonical sense, the child turned
+    rev = CategoryPriors("toy", parts, (JointPrior("revolute", 0, 1, (1, 0, 0), limits=(0.0, 1.0)),), norm_scale_m=0.3)
+    from ucope.geometry.transforms import rotation_about_axis
+
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[1, :3, :3] = rotation_about_axis(np.array([1.0, 0, 0]), 1.4)
+    T2, q2, clamped = clamp_joint_states(T, -np.eye(3)[:1], np.zeros((1, 3)), np.array([-1.4]), rev)
+    assert clamped[0] and q2[0] == pytest.approx(-1.0)
+    np.testing.assert_allclose(T2[1, :3, :3], rotation_about_axis(np.array([1.0, 0, 0]), 1.0), atol=1e-9)
+    same, q3, clamped = clamp_joint_states(T2, np.eye(3)[:1], np.zeros((1, 3)), np.array([1.0]), rev)
+    assert not clamped[0] and np.array_equal(same, T2)

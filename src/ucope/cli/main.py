@@ -168,7 +168,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         epoch_size=args.epoch_size, val_samples=args.val_samples, workers=args.workers, log_every=args.log_every,
         val_every=args.val_every, checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
         threads=args.threads, device=args.device, resume=args.resume, init_from=args.init, progress=not args.quiet,
-        allow_changed_settings=args.allow_changed_settings,
+        allow_changed_settings=args.allow_changed_settings, augment=args.augment,
     )
     card = train(tc)
     if card:
@@ -426,6 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--lambda-seg", type=float, default=None, help="weight of the segmentation loss in eq. (7) (default 0.2)")
     t.add_argument("--lambda-joint", type=float, default=None, help="weight of the joint loss (default 0.2)")
     t.add_argument("--lambda-pose", type=float, default=None, help="weight of the pose loss (default 0.6)")
+    t.add_argument("--augment", type=float, default=0.0, metavar="P",
+                   help="corrupt each training item with chance P (occlusion, floor and neighbour points, outliers, noise, "
+                        "fewer points; the model gets a background class); default 0: off")
     t.add_argument("--head", choices=["voting", "regression"], default="voting",
                    help="voting: U-COPE (default); regression: the direct-regression baseline (same encoder, masks and joint heads)")
     t.add_argument("--seed", type=int, default=0, help="seed of the weights, sample order and draws")

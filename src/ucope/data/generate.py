@@ -23,7 +23,8 @@ from ..errors import DataError, InputError
 from ..objects.categories import SPLITS, get_category, make_instance
 from ..render.views import ViewConfig, render_view
 from .images import bop_entries, merge_bop_parts, write_png
-from .sample import sample_from_view
+from .sample import background_fields, sample_from_view
+from .scenes import add_adjacent_distractor
 from ..fileio import atomic_write_json, read_json
 from .shards import FORMAT_VERSION, shard_name, write_shard
 
@@ -35,7 +36,20 @@ MIN_OBJECT_PIXELS = 64
 
 @dataclass(frozen=True)
 class GenerateConfig:
-    """Everything that defines a data set's content (recorded in ``meta.json``)."""
+    """Everything that defines a data set's content (recorded in ``meta.json``).
+
+    Attributes:
+        category, split, seed: the instance and view streams; num: views; shard_size: views per shard.
+        views_per_instance: consecutive views of each instance.
+        max_points: points kept per view (a uniform subset of the object's pixels); normal_k: kNN normals.
+        images: also write depth / mask PNGs and BOP-style JSON.
+        view: :class:`ucope.render.views.ViewConfig` (camera, ranges, sensor noise, floor, distractors).
+        background: store each view's background pool (floor and distractor points next to the object,
+            :func:`ucope.data.sample.background_fields`) for the floor / mask-bleed augmentations.
+        adjacent_distractor: probability that a view gets one more distractor object standing right next
+            to the object in the image (:func:`ucope.data.scenes.add_adjacent_distractor`), so that a
+            bleeding mask meets another object, not only the floor.
+    """
 
     category: str
     split: str = "train"
@@ -47,6 +61,8 @@ class GenerateConfig:
     normal_k: int = 16
     images: bool = False
     view: ViewConfig = field(default_factory=ViewConfig)
+    background: bool = True
+    adjacent_distractor: float = 0.5
 
     def validate(self) -> None:
         get_category(self.category)  # UnknownCategoryError lists the valid names
@@ -62,6 +78,8 @@ class GenerateConfig:
             raise InputError(f"seed must be an integer >= 0, got {self.seed!r}")
         if not isinstance(self.normal_k, (int, np.integer)) or self.normal_k < 3:
             raise InputError(f"normal_k must be an integer >= 3, got {self.normal_k!r}")
+        if not 0.0 <= float(self.adjacent_distractor) <= 1.0:
+            raise InputError(f"adjacent_distractor must be a probability in [0, 1], got {self.adjacent_distractor!r}")
 
     @property
     def num_shards(self) -> int:
@@ -73,7 +91,8 @@ class GenerateConfig:
             "category": self.category, "split": self.split, "num": int(self.num), "seed": int(self.seed),
             "shard_size": int(self.shard_size), "views_per_instance": int(self.views_per_instance),
             "max_points": int(self.max_points), "normal_k": int(self.normal_k), "images": bool(self.images),
-            "view": self.view.to_dict(), "generator_version": GENERATOR_VERSION,
+            "view": self.view.to_dict(), "background": bool(self.background), "adjacent_distractor": float(self.adjacent_distractor),
+            "generator_version": GENERATOR_VERSION,
             "conventions_version": CONVENTIONS_VERSION, "format_version": FORMAT_VERSION,
         }
 
@@ -122,7 +141,17 @@ def make_sample(cfg: GenerateConfig, index: int, return_view: bool = False):
     else:  # pragma: no cover - would need a degenerate camera configuration
         raise InputError(f"could not find a view of {obj.instance_id} with {MIN_OBJECT_PIXELS} object pixels; check the camera settings")
     sample = sample_from_view(obj, view, cfg.view.camera, rng, index, cfg.max_points, cfg.normal_k)
+    if cfg.adjacent_distractor > 0 or cfg.background:
+        extra = np.random.default_rng(np.random.SeedSequence(entropy=int(cfg.seed), spawn_key=(*_stream_key(cfg, "scene"), int(index))))
+        if extra.random() < cfg.adjacent_distractor:
+            view, _ = add_adjacent_distractor(view, obj.size_m, sample["points"], cfg.view.camera, extra)
+        if cfg.background:
+            sample.update(background_fields(view, cfg.view.camera, len(sample["points"]), extra))
     return (sample, view) if return_view else sample
+
+
+def _stream_key(cfg: GenerateConfig, what: str) -> tuple[int, ...]:
+    return tuple(zlib.crc32(s.encode()) for s in (cfg.category, what, cfg.split))
 
 
 def _generate_shard(cfg: GenerateConfig, out: Path, shard: int) -> int:

@@ -19,7 +19,14 @@ name               shape / type    meaning
 ``category``       str             category name
 ``instance_id``    str             ``category/split/seed/index`` of the object instance
 ``index``          int             sample index in its data set
+``bg_points``      (M, 3) float32  background points just outside the object's silhouette (floor,
+                                   distractor objects), nearest first, at the cloud's density
+``bg_rank``        (M,) float32    their pixel distance to the silhouette (ascending)
+``bg_clutter``     (M,) bool       True for a distractor object's point, False for the floor
 =================  ==============  =============================================================
+
+The three ``bg_`` fields are optional (data sets generated with ``background=False`` lack them); they
+feed the floor and mask-bleed corruptions of :mod:`ucope.data.corrupt` (training augmentation).
 """
 
 from __future__ import annotations
@@ -33,7 +40,14 @@ from ..objects.articulation import ArticulatedObject
 from ..render.camera import PinholeCamera
 from ..render.views import RenderedView
 
-__all__ = ["SAMPLE_ARRAY_FIELDS", "sample_from_view", "check_sample"]
+__all__ = ["SAMPLE_ARRAY_FIELDS", "BACKGROUND_FIELDS", "sample_from_view", "check_sample", "background_fields"]
+
+BACKGROUND_FIELDS = ("bg_points", "bg_rank", "bg_clutter")
+"""The optional per-sample background pool (see the module table)."""
+
+BACKGROUND_BAND = 1.25
+"""The stored pool covers the band of background pixels nearest the silhouette as large as this many
+times the object's pixels (enough for a floor of 100 % of the object's points)."""
 
 SAMPLE_ARRAY_FIELDS = (
     "points", "normals", "part_labels", "cam_from_part", "size_m", "joint_type",
@@ -83,6 +97,20 @@ def sample_from_view(
     }
 
 
+def background_fields(view: RenderedView, camera: PinholeCamera, num_points: int, rng: np.random.Generator) -> dict:
+    """The ``bg_`` fields of a sample: the background pool of ``view`` (:func:`ucope.data.corrupt.background_pool`)
+    cut to the band of :data:`BACKGROUND_BAND` times the object's pixels nearest the silhouette and thinned
+    at random (from ``rng``) to the density of the sample's ``num_points``-point cloud."""
+    from .corrupt import background_pool
+
+    pool = background_pool(view, camera, cloud_points=num_points)
+    n_obj = int(np.count_nonzero((view.mask < len(view.cam_from_part)) & (view.depth_mm > 0)))
+    band = min(len(pool.rank), int(round(BACKGROUND_BAND * n_obj)))
+    keep = np.flatnonzero(rng.random(band) < 1.0 / pool.pixels_per_point)
+    return {"bg_points": pool.points[keep].astype(np.float32), "bg_rank": pool.rank[keep].astype(np.float32),
+            "bg_clutter": np.asarray(pool.clutter[keep], dtype=bool)}
+
+
 def check_sample(sample: dict) -> None:
     """Raise :class:`InputError` naming the first field of ``sample`` with a wrong shape."""
     for k in SAMPLE_ARRAY_FIELDS + ("category", "instance_id"):
@@ -95,6 +123,9 @@ def check_sample(sample: dict) -> None:
         "joint_type": (K - 1,), "joint_pivot": (K - 1, 3), "joint_axis": (K - 1, 3), "joint_state": (K - 1,),
         "cam_from_object": (4, 4), "intrinsics": (4,),
     }
+    if "bg_points" in sample:
+        M = len(sample["bg_points"])
+        want.update({"bg_points": (M, 3), "bg_rank": (M,), "bg_clutter": (M,)})
     for k, shape in want.items():
-        if np.shape(sample[k]) != shape:
-            raise InputError(f"sample field {k!r} has shape {np.shape(sample[k])}, expected {shape}")
+        if np.shape(sample.get(k)) != shape:
+            raise InputError(f"sample field {k!r} has shape {np.shape(sample.get(k))}, expected {shape}")

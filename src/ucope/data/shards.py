@@ -43,6 +43,12 @@ def write_shard(path: str | os.PathLike, samples: list[dict]) -> None:
     arrays["index"] = np.array([s["index"] for s in samples], dtype=np.int64)
     arrays["instance_id"] = np.array([s["instance_id"] for s in samples])
     arrays["category"] = np.array([s["category"] for s in samples])
+    if all("bg_points" in s for s in samples):
+        bg = np.array([len(s["bg_points"]) for s in samples], dtype=np.int64)
+        arrays["bg_offsets"] = np.concatenate([[0], np.cumsum(bg)]).astype(np.int64)
+        arrays["bg_points"] = np.concatenate([np.asarray(s["bg_points"], np.float32).reshape(-1, 3) for s in samples])
+        arrays["bg_rank"] = np.concatenate([np.asarray(s["bg_rank"], np.float32).reshape(-1) for s in samples]).astype(np.float16)
+        arrays["bg_clutter"] = np.concatenate([np.asarray(s["bg_clutter"], bool).reshape(-1) for s in samples])
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     atomic_write_bytes(path, buf.getvalue())
@@ -84,6 +90,11 @@ def read_shard(path: str | os.PathLike, num_parts: int | None = None, category: 
             for k in _STACK_FIELDS:
                 s[k] = data[k][i]
             s["joint_type"] = s["joint_type"].astype(np.int64)
+            if "bg_offsets" in data:
+                c, d = int(data["bg_offsets"][i]), int(data["bg_offsets"][i + 1])
+                s["bg_points"] = data["bg_points"][c:d]
+                s["bg_rank"] = data["bg_rank"][c:d].astype(np.float32)
+                s["bg_clutter"] = data["bg_clutter"][c:d]
             s["category"] = str(data["category"][i])
             s["instance_id"] = str(data["instance_id"][i])
             s["index"] = int(data["index"][i])
@@ -120,5 +131,11 @@ def _check_shard(path, data: dict, n: int, num_parts: int | None, category: str 
     labels = data["part_labels"]
     if K is not None and len(labels) and (int(labels.min()) < 0 or int(labels.max()) >= K):
         raise DataError(f"shard {path} holds part labels {int(labels.min())}..{int(labels.max())}, outside 0..{K - 1}; it is corrupt")
+    if "bg_offsets" in data:
+        bo, M = data["bg_offsets"], len(data["bg_points"])
+        if len(bo) != n + 1 or bo[0] != 0 or bo[-1] != M or np.any(np.diff(bo) < 0) or len(data["bg_rank"]) != M or len(data["bg_clutter"]) != M:
+            raise DataError(f"shard {path} has inconsistent background offsets; it is corrupt")
+        if not np.all(np.isfinite(data["bg_points"])):
+            raise DataError(f"shard {path} holds non-finite background points; it is corrupt")
     if category is not None and np.any(data["category"] != category):
         raise DataError(f"shard {path} holds {sorted(set(map(str, data['category'])))} samples, meta.json says {category!r}")

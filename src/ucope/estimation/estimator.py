@@ -39,6 +39,7 @@ from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
+from .confidence import Calibration, part_features
 from .inputs import MIN_POINTS, NORMAL_K, label_points, prepare_points, rgbd_points
 from .result import JointEstimate, PartEstimate, PoseResult
 
@@ -95,6 +96,9 @@ class Estimator:
         max_input_points: clouds above this many points are subsampled uniformly first (4096: the
             density the models were trained on; at least :data:`ucope.estimation.inputs.MIN_POINTS`).
         options: :class:`ucope.voting.VotingOptions`.
+        calibration: the model's score calibration (:class:`ucope.estimation.confidence.Calibration`;
+            :meth:`load` reads it from the model file): part scores become success probabilities and
+            an object below its threshold gets a warning. ``None``: scores are the raw vote scores.
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -104,7 +108,7 @@ class Estimator:
     def __init__(self, model: UCOPENet, name: str = "", num_pairs: int = 20000, awareness: bool = True,
                  refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096,
                  resolve_flips: bool = True, score_filter: bool | None = None, segment_pairs: bool | None = None,
-                 options: VotingOptions | None = None):
+                 options: VotingOptions | None = None, calibration: Calibration | None = None):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
         if not (isinstance(num_pairs, (int, np.integer)) and 10 <= num_pairs <= MAX_PAIRS):
@@ -129,6 +133,9 @@ class Estimator:
         self.max_input_points = int(max_input_points)
         self.options = options or VotingOptions()
         self.shapes = ShapeIndex.from_priors(self.priors)
+        if calibration is not None and len(calibration.part_bias) != self.cfg.num_parts:
+            raise InputError(f"the calibration is for {len(calibration.part_bias)} parts, the model has {self.cfg.num_parts}")
+        self.calibration = calibration
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
@@ -142,9 +149,11 @@ class Estimator:
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
         net, meta = load_model(path)
+        info = meta.get("info") or {}
         if refine is None:
-            defaults = (meta.get("info") or {}).get("defaults") or {}
-            refine = bool(defaults.get("refine", False))
+            refine = bool((info.get("defaults") or {}).get("refine", False))
+        if "calibration" not in kwargs and info.get("calibration"):
+            kwargs["calibration"] = Calibration.from_dict(info["calibration"])
         return cls(net, name=str(Path(model)), refine=refine, **kwargs)
 
     @property
@@ -211,14 +220,33 @@ class Estimator:
             v = vote_object(p_net, n_net, pair_idx, out, self.priors, awareness=self.awareness, refine=self.refine,
                             options=self.options, resolve_flips=self.resolve_flips, axis_heads=axis_heads, shapes=self.shapes,
                             score_filter=self.score_filter)
-        parts, joints = self._estimates(v)
+        K = cfg.num_parts
+        seg_prob = enc["seg_logits"][0].softmax(-1).cpu().numpy() if "seg_logits" in enc else None
+        feats = part_features(v, labels, seg_prob, p_net, len(raw), [j.parent for j in self.priors.joints],
+                              [j.child for j in self.priors.joints])
+        scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
+        parts, joints = self._estimates(v, scores)
+        for j in np.flatnonzero(v.get("joint_clamped", [])):
+            warnings.append(f"joint {joints[j].parent}->{joints[j].child}: the voted state lay outside the category's limits; "
+                            "it was clamped onto them (and the child moved), its score halved")
+        if self.calibration is not None and float(scores.min()) < self.calibration.threshold:
+            worst = int(np.argmin(scores))
+            warnings.append(f"low confidence: part {parts[worst].label!r} is likely wrong (score {scores[worst]:.2f} below "
+                            f"the model's threshold {self.calibration.threshold:.2f})")
         t4 = time.perf_counter()
-        all_labels = label_points(raw, finite, p_net, labels)
+        background = labels >= K  # the background class (models with one): not the object
+        if background.mean() > 0.5:
+            warnings.append(f"{100 * background.mean():.0f} % of the points were segmented as not the object: "
+                            "is the cloud one segmented object?")
+        for k, pe in enumerate(parts):
+            if np.count_nonzero(labels == k) < 3:
+                warnings.append(f"part {pe.label!r}: fewer than 3 points were segmented as it; its pose is a guess")
+        all_labels = label_points(raw, finite, p_net, np.where(background, -1, labels))
         t5 = time.perf_counter()
         timings = {"preprocess": 1e3 * (t1 - t0 + t5 - t4), "encoder": 1e3 * (t2 - t1), "pair_encoder": 1e3 * (t3 - t2),
                    "voting": 1e3 * (t4 - t3), "total": 1e3 * (t5 - t0)}
         return PoseResult(category=cfg.category, parts=parts, joints=joints, part_labels=all_labels,
-                          timings_ms=timings, model=self.name, num_points=len(raw), warnings=warnings)
+                          timings_ms=timings, model=self.name, num_points=len(raw), warnings=warnings, features=feats)
 
     def _extent_warnings(self, pts: np.ndarray, units: str) -> list[str]:
         """Refuse a cloud far outside the sizes the model was trained on; warn about one outside them."""
@@ -256,12 +284,13 @@ class Estimator:
             out[k] = pool[rng.integers(0, len(pool), size=(M, 2))]
         return out
 
-    def _estimates(self, v: dict) -> tuple[list[PartEstimate], list[JointEstimate]]:
-        """The result's parts and joints from the dict of :func:`vote_object` / :func:`regressed_object`."""
+    def _estimates(self, v: dict, scores: np.ndarray) -> tuple[list[PartEstimate], list[JointEstimate]]:
+        """The result's parts and joints from the dict of :func:`vote_object` / :func:`regressed_object`
+        and the parts' ``(K,)`` scores."""
         pri = self.priors
         parts = [PartEstimate(index=k, label=pp.name, cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
-                              size_m=np.asarray(v["size_m"][k], np.float64), score=float(v["score"][k]),
-                              symmetry=pp.symmetry, num_votes=int(v["num_pairs"][k]))
+                              size_m=np.asarray(v["size_m"][k], np.float64), score=float(scores[k]),
+                              symmetry=pp.symmetry, num_votes=int(v["num_pairs"][k]), vote_score=float(v["score"][k]))
                  for k, pp in enumerate(pri.parts)]
         joints = []
         for j, jp in enumerate(pri.joints):

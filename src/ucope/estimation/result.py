@@ -6,16 +6,17 @@ length in metres, angles in radians, camera frame = OpenCV: +x right, +y down, +
     {
       "format": "ucope-result/1",
       "category": "laptop",
+      "score": 0.83,                          # the object's confidence: its smallest part score
+      "warnings": ["..."],                    # what looked wrong with the input or the estimate
       "parts": [{"index": 0, "label": "base", "symmetry": "none",
                  "cam_from_part": [[...4 floats...] x 4], "size_m": [x, y, z],
-                 "score": 0.83, "num_votes": 9400}, ...],
+                 "score": 0.83, "vote_score": 0.91, "num_votes": 9400}, ...],
       "joints": [{"type": "revolute", "parent": 0, "child": 1,
                   "pivot_m": [x, y, z] | null, "axis": [x, y, z],
                   "state": 1.21, "state_unit": "rad", "score": 0.9}, ...],
-      "part_labels": [0, 0, 1, -1, ...],      # one per input point; -1: dropped (NaN / Inf)
+      "part_labels": [0, 0, 1, -1, ...],      # one per input point; -1: not the object (NaN / Inf, background)
       "num_points": 12345,                    # input points
       "timings_ms": {"preprocess": ..., "encoder": ..., "pair_encoder": ..., "voting": ..., "total": ...},
-      "warnings": ["..."],                    # what looked wrong with the input or the estimate
       "model": "laptop", "ucope_version": "0.2.0", "conventions_version": "1"
     }
 
@@ -59,7 +60,9 @@ def _floats(a, ndigits: int = 7) -> Any:
 @dataclass
 class PartEstimate:
     """One part's 9D pose: ``cam_from_part`` ``(4, 4)``, ``size_m`` ``(3,)``, a confidence ``score`` in
-    ``[0, 1]`` (the fraction of its votes that agree) and the number of pairs that voted."""
+    ``[0, 1]`` (the calibrated probability that the part is right, within 10 degrees and 10 % of its box
+    diagonal, for a model with a calibration; else the vote score), the raw ``vote_score`` (the fraction
+    of its votes that agree x their mean part-score probability) and the number of pairs that voted."""
 
     index: int
     label: str
@@ -68,17 +71,22 @@ class PartEstimate:
     score: float
     symmetry: str = "none"
     num_votes: int = 0
+    vote_score: float | None = None
 
     def to_dict(self) -> dict:
-        return {"index": int(self.index), "label": self.label, "symmetry": self.symmetry,
-                "cam_from_part": _floats(self.cam_from_part), "size_m": _floats(self.size_m),
-                "score": round(float(self.score), 5), "num_votes": int(self.num_votes)}
+        d = {"index": int(self.index), "label": self.label, "symmetry": self.symmetry,
+             "cam_from_part": _floats(self.cam_from_part), "size_m": _floats(self.size_m),
+             "score": round(float(self.score), 5), "num_votes": int(self.num_votes)}
+        if self.vote_score is not None:
+            d["vote_score"] = round(float(self.vote_score), 5)
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "PartEstimate":
         return cls(index=int(d["index"]), label=str(d["label"]),
                    cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4), size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
-                   symmetry=str(d.get("symmetry", "none")), num_votes=int(d.get("num_votes", 0)))
+                   symmetry=str(d.get("symmetry", "none")), num_votes=int(d.get("num_votes", 0)),
+                   vote_score=None if d.get("vote_score") is None else float(d["vote_score"]))
 
 
 @dataclass
@@ -123,6 +131,9 @@ class PoseResult:
     model: str = ""
     num_points: int = 0
     warnings: list[str] = field(default_factory=list)
+    features: np.ndarray | None = field(default=None, repr=False, compare=False)
+    """``(K, len(FEATURES))`` the inputs of the score calibration (:mod:`ucope.estimation.confidence`);
+    not part of the JSON form."""
 
     @property
     def cam_from_part(self) -> np.ndarray:
@@ -135,6 +146,11 @@ class PoseResult:
         return np.stack([p.size_m for p in self.parts])
 
     @property
+    def score(self) -> float:
+        """The object's confidence: the smallest of its parts' scores (every part must be right)."""
+        return float(min((p.score for p in self.parts), default=0.0))
+
+    @property
     def joint_state(self) -> np.ndarray:
         return np.array([j.state for j in self.joints], dtype=np.float64)
 
@@ -142,12 +158,13 @@ class PoseResult:
         return {
             "format": RESULT_FORMAT,
             "category": self.category,
+            "score": round(self.score, 5),
+            "warnings": [str(w) for w in self.warnings],
             "parts": [p.to_dict() for p in self.parts],
             "joints": [j.to_dict() for j in self.joints],
             "part_labels": np.asarray(self.part_labels, dtype=np.int64).tolist(),
             "num_points": int(self.num_points),
             "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
-            "warnings": [str(w) for w in self.warnings],
             "model": self.model,
             "ucope_version": __version__,
             "conventions_version": CONVENTIONS_VERSION,

@@ -13,11 +13,16 @@ import torch
 from torch.utils.data import Dataset
 
 from ..errors import InputError
+from ..data.augment import augment_sample
+from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
 from .config import ModelConfig
 from .pointnet2 import numpy_fps_indices
 
 __all__ = ["TrainingItems", "collate_items", "batch_to", "sample_pairs"]
+
+NORMAL_K = 16
+"""Neighbours of the normals estimated for corrupted items (as the estimator and the generator use)."""
 
 _FLOAT_FIELDS = ("cam_from_part", "size_m", "joint_pivot", "joint_axis", "joint_state")
 
@@ -54,17 +59,26 @@ class TrainingItems(Dataset):
     normals and labels, the ground-truth fields as float32 tensors, the FPS indices of every encoder
     level, and ``(K, pairs_per_part, 2)`` pair indices (:func:`sample_pairs`).
 
+    With ``augment`` each sample's cloud is first corrupted (:func:`ucope.data.augment.augment_sample`:
+    occlusion, floor and neighbour points, outliers, noise, fewer points), the points it adds labelled
+    ``K`` (the model's background class, required), and the normals of a corrupted item estimated anew
+    (kNN PCA, k = 16, facing the camera) for the points the network sees, as the estimator does.
+
     Args:
         samples: an indexable sequence of sample dicts (:func:`ucope.data.load_dataset`, or generated
             on the fly).
         cfg: the model configuration (number of points, pairs, encoder levels).
         seed: seed of every draw.
+        augment: an :class:`ucope.data.augment.AugmentConfig`, or ``None`` (no augmentation).
     """
 
-    def __init__(self, samples: Sequence[dict], cfg: ModelConfig, seed: int = 0):
+    def __init__(self, samples: Sequence[dict], cfg: ModelConfig, seed: int = 0, augment=None):
+        if augment is not None and not cfg.background_class:
+            raise InputError("augmentation adds points that are not the object: the model needs background_class=True")
         self.samples = samples
         self.cfg = cfg
         self.seed = int(seed)
+        self.augment = augment
         self.epoch = 0
 
     def set_epoch(self, epoch: int) -> None:
@@ -83,13 +97,19 @@ class TrainingItems(Dataset):
         if len(s["size_m"]) != K:
             raise InputError(f"sample {i} ({s.get('category')}) has {len(s['size_m'])} parts, the model {K} ({cfg.category})")
         rng = np.random.default_rng(np.random.SeedSequence(entropy=self.seed, spawn_key=(self.epoch, int(i))))
-        idx = random_subset(len(s["points"]), cfg.num_points, rng)
-        pts = np.ascontiguousarray(s["points"][idx], dtype=np.float32)
-        labels = np.asarray(s["part_labels"])[idx].astype(np.int64)
+        all_pts, all_labels, normals = s["points"], np.asarray(s["part_labels"]), s["normals"]
+        corrupted = False
+        if self.augment is not None:
+            all_pts, all_labels, corrupted = augment_sample(s, np.random.default_rng(rng.integers(1 << 63)), self.augment)
+            all_labels = np.where(all_labels < 0, K, all_labels)  # added points: the background class
+        idx = random_subset(len(all_pts), cfg.num_points, rng)
+        pts = np.ascontiguousarray(all_pts[idx], dtype=np.float32)
+        labels = np.asarray(all_labels)[idx].astype(np.int64)
+        nrm = estimate_normals(all_pts, k=NORMAL_K, rows=idx) if corrupted else np.asarray(normals)[idx]
         fps = numpy_fps_indices(pts, cfg.encoder.npoints)
         out = {
             "points": torch.from_numpy(pts),
-            "normals": torch.from_numpy(np.ascontiguousarray(s["normals"][idx], dtype=np.float32)),
+            "normals": torch.from_numpy(np.ascontiguousarray(nrm, dtype=np.float32)),
             "part_labels": torch.from_numpy(labels),
             "joint_type": torch.from_numpy(np.asarray(s["joint_type"], dtype=np.int64).reshape(-1)),
             "fps_idx": [torch.from_numpy(f) for f in fps],

@@ -53,6 +53,9 @@ class ModelConfig:
             much as any other part's) or ``"points"`` (every point alike).
         head: ``"voting"`` (U-COPE: the pair encoder and voting) or ``"regression"`` (the baseline
             of :mod:`ucope.model.regression`: the same network with poses regressed directly).
+        background_class: the segmentation has a ``K + 1``-th class for points that are not the object
+            (floor, outliers, other objects: beyond the paper, see :mod:`ucope.model.network`); training
+            items label such points ``K``.
     """
 
     priors: CategoryPriors
@@ -69,6 +72,7 @@ class ModelConfig:
     lambda_pose: float = 0.6
     head: str = "voting"
     seg_weighting: str = "balanced"
+    background_class: bool = False
     version: int = MODEL_CONFIG_VERSION
 
     def __post_init__(self) -> None:

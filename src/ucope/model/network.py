@@ -7,7 +7,10 @@ Data flow (paper section 4.2-4.5), all channels-last:
   gives ``F1`` ``(B, N, C)``.
 * K >= 2: a mask decoder gives per-point part logits ``(B, N, K)`` (segmentation, cross-entropy) and
   masks ``m = softmax(logits)``; the re-modulated features are ``F2_k = F1 * m_k`` (Hadamard). K = 1:
-  ``F2_0 = F1`` and there is no segmentation branch.
+  ``F2_0 = F1`` and there is no segmentation branch. With ``cfg.background_class`` (beyond the paper)
+  the decoder has a ``K + 1``-th class, "not the object" (floor, outliers, a neighbour's points), for any
+  K (a rigid object too): ``m = softmax(logits)[..., :K]``, so background points are masked out of every
+  part's features and, segmented as background, never drawn into a part's pairs.
 * Pair encoder: for part ``k`` and a pair ``(i, j)``, ``[F2_k[i], F2_k[j], PPF(i, j), onehot(k)]`` ->
   an MLP -> a per-part output layer giving the bin logits of ``mu``, ``nu``, ``alpha``, ``beta``, two
   axis sign-bit logits, ``gamma`` (3) and the part-score logit (both points on part ``k``). The first
@@ -84,7 +87,8 @@ class UCOPENet(nn.Module):
         K, J, H = cfg.num_parts, cfg.num_joints, cfg.hidden
         self.encoder = PointNet2Encoder(cfg.encoder)
         C = self.encoder.out_channels
-        self.mask_head = nn.Sequential(nn.Linear(C, H), nn.ReLU(inplace=True), nn.Linear(H, K)) if K > 1 else None
+        self.num_classes = K + 1 if cfg.background_class else K  # segmentation classes (the last is "background")
+        self.mask_head = nn.Sequential(nn.Linear(C, H), nn.ReLU(inplace=True), nn.Linear(H, self.num_classes)) if self.num_classes > 1 else None
         self._build_pose_heads(C, K, H)
         if J > 0:
             self.joint_mlp = _mlp(C, H, 2)
@@ -122,8 +126,8 @@ class UCOPENet(nn.Module):
             fps_idx: optional precomputed FPS indices (see :class:`PointNet2Encoder`).
 
         Returns:
-            ``feats`` ``(B, N, C)`` (F1), ``masks`` ``(B, N, K)``, and for K >= 2 ``seg_logits``
-            ``(B, N, K)``.
+            ``feats`` ``(B, N, C)`` (F1), ``masks`` ``(B, N, K)``, and, with a segmentation branch (K >= 2
+            or a background class), ``seg_logits`` ``(B, N, K)`` (``(B, N, K + 1)`` with the background class).
         """
         if points.ndim != 3 or points.shape[-1] != 3 or normals.shape != points.shape:
             raise InputError(f"points and normals must both be (B, N, 3), got {tuple(points.shape)} and {tuple(normals.shape)}")
@@ -134,7 +138,7 @@ class UCOPENet(nn.Module):
         if self.mask_head is not None:
             logits = self.mask_head(f1)
             out["seg_logits"] = logits
-            out["masks"] = logits.softmax(-1)
+            out["masks"] = logits.softmax(-1)[..., : self.cfg.num_parts]
         else:
             out["masks"] = f1.new_ones(*f1.shape[:2], 1)
         return out
@@ -264,7 +268,7 @@ class UCOPENet(nn.Module):
         cfg = self.cfg
         K, J = cfg.num_parts, cfg.num_joints
         logs: dict[str, float] = {}
-        seg = self._seg_loss(out, batch, logs) if K > 1 else out["feats"].new_zeros(())
+        seg = self._seg_loss(out, batch, logs) if self.mask_head is not None else out["feats"].new_zeros(())
         pose = self._pose_loss(out, batch, logs)
         joint = self._joint_loss(out, batch, logs) if J > 0 else out["feats"].new_zeros(())
         total = (cfg.lambda_joint * joint + cfg.lambda_seg * seg + cfg.lambda_pose * pose) / K
@@ -272,15 +276,16 @@ class UCOPENet(nn.Module):
         return total, logs
 
     def _seg_loss(self, out, batch, logs) -> torch.Tensor:
-        """``cfg.seg_weighting``: ``"balanced"``, the sum over parts of the mean cross-entropy of that
-        part's points; ``"points"``, K x the mean cross-entropy over all points (the same scale)."""
-        K = self.cfg.num_parts
+        """``cfg.seg_weighting``: ``"balanced"``, the sum over classes (the parts, and the background class
+        when the model has one) of the mean cross-entropy of that class's points; ``"points"``, the number of
+        classes x the mean cross-entropy over all points (the same scale)."""
+        C = self.num_classes
         logits, labels = out["seg_logits"], batch["part_labels"]
-        ce = F.cross_entropy(logits.reshape(-1, K), labels.reshape(-1), reduction="none")
+        ce = F.cross_entropy(logits.reshape(-1, C), labels.reshape(-1), reduction="none")
         if self.cfg.seg_weighting == "points":
-            per_part = ce.mean().expand(K)
+            per_part = ce.mean().expand(C)
         else:
-            onehot = F.one_hot(labels.reshape(-1), K).to(ce.dtype)  # (BN, K)
+            onehot = F.one_hot(labels.reshape(-1), C).to(ce.dtype)  # (BN, C)
             per_part = (onehot * ce[:, None]).sum(0) / onehot.sum(0).clamp_min(1.0)
         with torch.no_grad():
             logs["seg_acc"] = float((logits.argmax(-1) == labels).float().mean())
@@ -342,6 +347,8 @@ class UCOPENet(nn.Module):
         pivot, axis, jtype = batch["joint_pivot"], batch["joint_axis"], batch["joint_type"]
         s = self.norm_scale
         t = joint_point_targets(pts, labels, pivot, axis, jtype, self.joint_parent_idx, self.joint_child_idx, self.cfg.heat_radius * s)
+        if self.cfg.background_class:  # background points are nobody's hinge
+            t["heat"] = t["heat"] * (labels < self.cfg.num_parts).to(pts.dtype).unsqueeze(1)
         heat_l, score_l = out["joint_heat"], out["joint_score"]
         l_heat = F.binary_cross_entropy_with_logits(heat_l, t["heat"], reduction="none").mean(-1)  # (B, J)
         l_score = F.binary_cross_entropy_with_logits(score_l, t["score"], reduction="none").mean(-1)

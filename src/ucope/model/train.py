@@ -49,6 +49,7 @@ from ..fileio import atomic_write_json
 from ..errors import DataError, InputError, UcopeError
 from .batch import TrainingItems, batch_to, collate_items
 from .checkpoint import find_model, load_checkpoint, load_model, read_model_json, save_checkpoint, save_model
+from ..data.augment import AugmentConfig
 from ..priors import measure_priors
 from .config import ModelConfig
 from .factory import build_model
@@ -93,6 +94,10 @@ class TrainConfig:
             model's; ``model_overrides`` may only change the training settings among its fields
             (``pairs_per_part``, ``lambda_*``, ``seg_weighting``). The optimiser and the learning-rate
             schedule start afresh. Ignored on ``resume`` (the checkpoint holds the weights).
+        augment: the chance that a training item is corrupted (occlusion, floor and neighbour points,
+            outliers, noise, fewer points: :mod:`ucope.data.augment`); 0 = off. The model needs the
+            background class (``model_overrides={"background_class": True}``, set automatically for a new
+            run or a fine-tuning with ``augment > 0``).
         progress: show a progress bar (rank 0).
     """
 
@@ -123,6 +128,7 @@ class TrainConfig:
     resume: bool = False
     init_from: str | None = None
     allow_changed_settings: bool = False
+    augment: float = 0.0
     progress: bool = True
 
     def validate(self) -> None:
@@ -145,6 +151,8 @@ class TrainConfig:
             raise InputError(f"model_size must be 'slim' or 'full', got {self.model_size!r}")
         if self.workers < 0:
             raise InputError("workers must be >= 0")
+        if not 0.0 <= float(self.augment) <= 1.0:
+            raise InputError(f"augment must be a probability in [0, 1], got {self.augment!r}")
         for name in ("seed", "data_seed"):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 0:
@@ -330,7 +338,7 @@ def train(tc: TrainConfig, on_step: Callable[[int], None] | None = None) -> dict
         dd.close()
 
 
-_FINE_TUNE_FIELDS = ("pairs_per_part", "lambda_seg", "lambda_joint", "lambda_pose", "seg_weighting")
+_FINE_TUNE_FIELDS = ("pairs_per_part", "lambda_seg", "lambda_joint", "lambda_pose", "seg_weighting", "background_class")
 
 
 def _init_config(tc: TrainConfig) -> tuple[ModelConfig, torch.nn.Module]:
@@ -343,7 +351,28 @@ def _init_config(tc: TrainConfig) -> tuple[ModelConfig, torch.nn.Module]:
     if fixed:
         raise InputError(f"--init {tc.init_from}: the network is the initial model's; {', '.join(fixed)} cannot change "
                          f"(only {', '.join(_FINE_TUNE_FIELDS)} can)")
-    return dataclasses.replace(cfg, **{k: v for k, v in tc.model_overrides.items() if k in _FINE_TUNE_FIELDS}), init
+    changes = {k: v for k, v in tc.model_overrides.items() if k in _FINE_TUNE_FIELDS}
+    if tc.augment > 0:
+        changes.setdefault("background_class", True)
+    return dataclasses.replace(cfg, **changes), init
+
+
+def load_matching_weights(model: torch.nn.Module, state: dict[str, torch.Tensor]) -> list[str]:
+    """Copy ``state`` into ``model`` where the shapes agree; an output layer that grew (the segmentation
+    head gaining the background class) keeps its first rows; every other mismatch keeps the fresh
+    weights. Returns the names of the tensors not copied whole (for the model card)."""
+    own = model.state_dict()
+    partial = []
+    for k, v in own.items():
+        src = state.get(k)
+        if src is not None and src.shape == v.shape:
+            v.copy_(src)
+        elif src is not None and src.ndim == v.ndim and src.shape[1:] == v.shape[1:] and src.shape[0] < v.shape[0]:
+            v[: src.shape[0]].copy_(src)
+            partial.append(k)
+        else:
+            partial.append(k)
+    return partial
 
 
 RESUME_MAY_CHANGE = ("out", "data", "val_data", "steps", "epochs", "workers", "log_every", "val_every", "checkpoint_every",
@@ -388,8 +417,9 @@ class _Run:
         self.cfg, init = self._config(structure)
         torch.manual_seed(tc.seed)
         self.model = build_model(self.cfg)
+        self.reinitialised: list[str] = []
         if init is not None:
-            self.model.load_state_dict(init.state_dict())
+            self.reinitialised = load_matching_weights(self.model, init.state_dict())
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=tc.lr)
         self.step, self.elapsed_before = 0, 0.0
         self.last_val: dict[str, float] = {}
@@ -399,7 +429,7 @@ class _Run:
         self.net = self.model
         if dd.enabled:
             self.net = torch.nn.parallel.DistributedDataParallel(self.model, device_ids=[self.device.index] if use_cuda else None)
-        self.items = TrainingItems(self.samples, self.cfg, seed=tc.seed)
+        self.items = TrainingItems(self.samples, self.cfg, seed=tc.seed, augment=AugmentConfig(probability=tc.augment) if tc.augment > 0 else None)
         self.per_step = tc.batch_size * dd.world
         self.steps_per_epoch = len(self.items) // self.per_step
         if self.steps_per_epoch == 0:
@@ -424,7 +454,10 @@ class _Run:
             return _init_config(tc)
         priors = measure_priors(self.samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
                                 template_samples=100 if tc.on_the_fly else 400)
-        return ModelConfig.default(priors, size=tc.model_size, **tc.model_overrides), None
+        overrides = dict(tc.model_overrides)
+        if tc.augment > 0:
+            overrides.setdefault("background_class", True)
+        return ModelConfig.default(priors, size=tc.model_size, **overrides), None
 
     def _restore(self) -> None:
         """Weights, optimiser, counters and the open metrics window of a resumed run."""
@@ -580,6 +613,7 @@ class _Run:
             if init_info.get("initialised_from"):  # a chain of fine-tunings: keep every stage
                 card["initialised_from"]["initialised_from"] = init_info["initialised_from"]
             card["model_size"] = init_info.get("model_size", tc.model_size)
+            card["initialised_from"]["reinitialised"] = self.reinitialised
         return card
 
     def finish(self) -> dict:

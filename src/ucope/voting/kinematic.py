@@ -44,7 +44,7 @@ from ..geometry.transforms import closest_rotation, rotation_about_axis
 from ..priors import CategoryPriors
 from ..vocab import JointType
 
-__all__ = ["kinematic_refine", "resolve_joint_flips", "resolve_shape_flips", "ShapeIndex"]
+__all__ = ["kinematic_refine", "resolve_joint_flips", "resolve_shape_flips", "ShapeIndex", "clamp_joint_states"]
 
 
 _HALF_TURNS = np.stack([np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])])
@@ -307,3 +307,49 @@ def kinematic_refine(
             state[j] = joint_state_from_poses(out_T[parent[j]], out_T[child[j]], axis[j], JointType.PRISMATIC, S[parent[j]], S[child[j]],
                                               jp.zero_offset_m)
     return dict(cam_from_part=out_T, joint_axis=axis, joint_pivot=pivot, joint_state=state)
+
+
+def clamp_joint_states(cam_from_part: np.ndarray, joint_axis: np.ndarray, joint_pivot: np.ndarray, joint_state: np.ndarray,
+                       priors: CategoryPriors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bring joint states that voting put outside the category's limits back onto them, moving the child.
+
+    A state is measured about the voted joint axis ``u``; the limits about the canonical one ``R_p a``
+    (``JointPrior.axis_in_parent``). A state outside its limits (a hidden drawer pulled out further than
+    any drawer opens) is set to the nearest limit and the child moves with it: along ``u`` (prismatic) or
+    about the axis line through the voted pivot (revolute). Prismatic joints whose voted axis points
+    against the canonical one are left alone (their support gap is not the state then).
+
+    Args:
+        cam_from_part: ``(K, 4, 4)``; joint_axis, joint_pivot: ``(J, 3)`` camera frame; joint_state: ``(J,)``.
+        priors: the category's priors (limits, canonical axes).
+
+    Returns:
+        ``(cam_from_part, joint_state, clamped)``: copies, and ``(J,)`` bool, the joints clamped.
+    """
+    T = np.array(cam_from_part, dtype=np.float64)
+    q = np.array(joint_state, dtype=np.float64)
+    clamped = np.zeros(len(q), dtype=bool)
+    for j, jp in enumerate(priors.joints):  # parents first: a moved child carries nothing else along here
+        lo, hi = jp.limits
+        u = np.asarray(joint_axis[j], dtype=np.float64)
+        canon = T[jp.parent, :3, :3] @ jp.axis
+        sign = 1.0 if float(u @ canon) >= 0 else -1.0
+        if jp.type == JointType.PRISMATIC and sign < 0:
+            continue
+        qc = sign * q[j]
+        target = min(max(qc, -np.inf if lo is None else lo), np.inf if hi is None else hi)
+        if abs(target - qc) < 1e-9:
+            continue
+        delta = sign * (target - qc)  # the change of the state about u
+        if jp.type == JointType.PRISMATIC:
+            T[jp.child, :3, 3] += delta * u / np.linalg.norm(u)
+        else:
+            piv = np.asarray(joint_pivot[j], dtype=np.float64)
+            if not np.all(np.isfinite(piv)):
+                piv = T[jp.parent, :3, 3]
+            R = rotation_about_axis(u, delta)
+            T[jp.child, :3, :3] = R @ T[jp.child, :3, :3]
+            T[jp.child, :3, 3] = R @ (T[jp.child, :3, 3] - piv) + piv
+        q[j] += delta
+        clamped[j] = True
+    return T, q, clamped

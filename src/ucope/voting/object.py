@@ -9,7 +9,7 @@ import numpy as np
 from ..geometry.kinematics import joint_state_from_poses
 from ..priors import CategoryPriors
 from .joints import vote_joints
-from .kinematic import ShapeIndex, kinematic_refine, resolve_joint_flips, resolve_shape_flips
+from .kinematic import ShapeIndex, clamp_joint_states, kinematic_refine, resolve_joint_flips, resolve_shape_flips
 from .part import VotingOptions, vote_parts
 
 __all__ = ["vote_object", "regressed_object"]
@@ -53,8 +53,8 @@ def vote_object(
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
         ``(J,)``; ``flipped`` ``(K,)`` bool marks the parts turned back by the joint checks and
-        ``shape_turned`` ``(K,)`` those turned by the shape check; ``refined`` tells whether the
-        kinematic refinement ran.
+        ``shape_turned`` ``(K,)`` those turned by the shape check; ``joint_clamped`` ``(J,)`` the joints
+        whose state was brought back into its limits; ``refined`` tells whether the kinematic refinement ran.
     """
     score_filter = awareness if score_filter is None else score_filter
     out = vote_parts(points, normals, pair_idx, outputs, priors, score_filter=score_filter, options=options, axis_heads=axis_heads)
@@ -85,9 +85,11 @@ def regressed_object(points, outputs: Mapping[str, Any], priors: CategoryPriors,
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
-def _with_joints(out: dict, points, outputs, priors: CategoryPriors, awareness: bool, refine: bool, resolve_flips: bool = True) -> dict[str, Any]:
+def _with_joints(out: dict, points, outputs, priors: CategoryPriors, awareness: bool, refine: bool, resolve_flips: bool = True,
+                 clamp_states: bool = True) -> dict[str, Any]:
     """Add the joints (:func:`vote_joints`), undo half-turn flips that contradict them
-    (:func:`resolve_joint_flips`), then the joint states and the optional refinement."""
+    (:func:`resolve_joint_flips`), then the joint states, clamped into the limits
+    (:func:`clamp_joint_states`, the joint score halved where clamped), and the optional refinement."""
     out.update(vote_joints(points, outputs, priors, awareness=awareness))
     J = priors.num_joints
     out["flipped"] = np.zeros(priors.num_parts, dtype=bool)
@@ -99,6 +101,12 @@ def _with_joints(out: dict, points, outputs, priors: CategoryPriors, awareness: 
         p, c = jp.parent, jp.child
         state[j] = joint_state_from_poses(T[p], T[c], out["joint_axis"][j], jp.type, S[p], S[c], jp.zero_offset_m)
     out["joint_state"] = state
+    out["joint_clamped"] = np.zeros(J, dtype=bool)
+    if clamp_states and J > 0:
+        out["cam_from_part"], out["joint_state"], out["joint_clamped"] = clamp_joint_states(
+            T, out["joint_axis"], out["joint_pivot"], state, priors)
+        out["joint_score"] = np.where(out["joint_clamped"], 0.5 * out["joint_score"], out["joint_score"])
+        T = out["cam_from_part"]
     out["refined"] = False
     if refine and J > 0:
         r = kinematic_refine(T, S, out, priors, part_weights=np.maximum(out["score"], 1e-3))

@@ -112,6 +112,7 @@ class PartVote:
         score: confidence in ``[0, 1]`` (inlier fraction x mean part-score probability).
         num_pairs: pairs that voted; num_inliers: centre inliers among them.
         fallback: too few pairs passed the part score and every pair voted.
+        mean_prob: the mean part-score probability of the voting pairs.
         timings_ms: CPU wall time per stage (``decode``, ``centre``, ``axes``, ``rotation``, ``size``).
     """
 
@@ -121,6 +122,7 @@ class PartVote:
     num_pairs: int
     num_inliers: int
     fallback: bool = False
+    mean_prob: float = 0.0
     timings_ms: dict[str, float] = field(default_factory=dict)
 
 
@@ -260,14 +262,15 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     size = np.exp(g.double().cpu().numpy()) * mean_size
     if opt.thin_snap_ratio > 0:
         centre = snap_to_visible_face(centre, R, size, a[sel[pool]], float(opt.thin_snap_ratio), symmetric)
-    score = (n_inl / S) * float(prob[sel].mean())
+    mean_prob = float(prob[sel].mean())
+    score = (n_inl / S) * mean_prob
     T = np.eye(4)
     T[:3, :3] = R.double().cpu().numpy()
     T[:3, 3] = centre.double().cpu().numpy()
     t5 = time.perf_counter()
     ms = lambda x, y: 1000.0 * (y - x)  # noqa: E731
     return PartVote(
-        cam_from_part=T, size_m=size, score=float(score), num_pairs=S, num_inliers=n_inl, fallback=fallback,
+        cam_from_part=T, size_m=size, score=float(score), num_pairs=S, num_inliers=n_inl, fallback=fallback, mean_prob=mean_prob,
         timings_ms=dict(decode=ms(t0, t1), centre=ms(t1, t2), axes=ms(t2, t3), rotation=ms(t3, t4), size=ms(t4, t5)),
     )
 
@@ -323,8 +326,8 @@ def vote_parts(
 
     Returns:
         dict of numpy arrays: ``cam_from_part`` ``(K, 4, 4)``, ``size_m`` ``(K, 3)``, ``score``
-        ``(K,)``, ``num_pairs`` / ``num_inliers`` ``(K,)`` int, ``fallback`` ``(K,)`` bool, and
-        ``timings_ms`` (a list of per-part stage timings).
+        ``(K,)``, ``num_pairs`` / ``num_inliers`` ``(K,)`` int, ``fallback`` ``(K,)`` bool, ``mean_prob``
+        ``(K,)``, and ``timings_ms`` (a list of per-part stage timings).
     """
     K = priors.num_parts
     pts = as_points(points, "points")
@@ -357,7 +360,7 @@ def vote_parts(
     out = dict(
         cam_from_part=np.zeros((K, 4, 4)), size_m=np.zeros((K, 3)), score=np.zeros(K),
         num_pairs=np.zeros(K, dtype=np.int64), num_inliers=np.zeros(K, dtype=np.int64),
-        fallback=np.zeros(K, dtype=bool), timings_ms=[],
+        fallback=np.zeros(K, dtype=bool), mean_prob=np.zeros(K), timings_ms=[],
     )
     opt = options or VotingOptions()
     t0 = time.perf_counter()
@@ -382,6 +385,7 @@ def vote_parts(
         out["cam_from_part"][k] = r.cam_from_part
         out["size_m"][k] = r.size_m
         out["score"][k] = r.score
+        out["mean_prob"][k] = r.mean_prob
         out["num_pairs"][k] = r.num_pairs
         out["num_inliers"][k] = r.num_inliers
         out["fallback"][k] = r.fallback

@@ -1,0 +1,60 @@
+"""Score calibration: the logistic fit, the AUROC against a plain reference, and scores in predictions."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from ucope.errors import InputError
+from ucope.estimation import Estimator
+from ucope.estimation.confidence import FEATURES, Calibration, auroc, fit_logistic
+
+
+def test_auroc_matches_the_pairwise_definition(rng):
+    s = np.round(rng.normal(size=300), 1)  # many ties
+    y = rng.random(300) < 0.4
+    pos, neg = s[y], s[~y]
+    ref = np.mean([(a > b) + 0.5 * (a == b) for a in pos for b in neg])
+    assert auroc(s, y) == pytest.approx(ref)
+    assert auroc(s, np.ones(300)) is None
+
+
+def test_fit_recovers_a_known_logistic_model(rng):
+    n, d = 20000, len(FEATURES)
+    X = rng.normal(size=(n, d)) * 2.0 + 1.0
+    part = rng.integers(0, 3, n)
+    z = 1.2 * X[:, 0] - 0.8 * X[:, 5] + np.array([0.0, 1.5, -1.0])[part] + 0.3
+    y = (rng.random(n) < 1 / (1 + np.exp(-z))).astype(float)
+    cal = Calibration.fit(X, y, part, 3, l2=1e-4)
+    F = np.tile(X[:50, None, :], (1, 3, 1))  # every sample as each of the 3 parts
+    got = np.stack([cal.part_scores(f) for f in F])
+    want = 1 / (1 + np.exp(-(1.2 * X[:50, 0, None] - 0.8 * X[:50, 5, None] + np.array([0.0, 1.5, -1.0]) + 0.3)))
+    assert np.abs(got - want).max() < 0.06
+    back = Calibration.from_dict(json.loads(json.dumps(cal.to_dict())))
+    np.testing.assert_allclose(back.part_scores(F[0]), cal.part_scores(F[0]))
+    coef, b, mean, std = fit_logistic(X[:, :2], (X[:, 0] > 1.0).astype(float), l2=1.0)
+    assert coef[0] > 3 * abs(coef[1])
+    with pytest.raises(InputError, match="features"):
+        Calibration.from_dict({**cal.to_dict(), "features": ["x"]})
+    with pytest.raises(InputError):
+        cal.part_scores(np.zeros((2, d)))
+
+
+def test_an_estimator_with_a_calibration_reports_probabilities_and_warns_below_its_threshold():
+    from ucope.data.generate import GenerateConfig, make_sample
+
+    s = make_sample(GenerateConfig(category="laptop", split="test", num=1, seed=4), 0)
+    raw = Estimator.load("laptop", num_pairs=4000, calibration=None)
+    r = raw.predict(s["points"])
+    assert r.features.shape == (2, len(FEATURES)) and all(p.score == p.vote_score for p in r.parts)
+    d = len(FEATURES)
+    always = Calibration(coef=(0.0,) * d, intercept=-2.0, mean=(0.0,) * d, std=(1.0,) * d, part_bias=(0.0, 0.0), threshold=0.5)
+    cal = Estimator(raw.model, num_pairs=4000, calibration=always).predict(s["points"])
+    assert [p.score for p in cal.parts] == pytest.approx([1 / (1 + np.exp(2.0))] * 2)
+    assert cal.score == pytest.approx(min(p.score for p in cal.parts))
+    assert any("low confidence" in w for w in cal.warnings)
+    ok = Estimator(raw.model, num_pairs=4000, calibration=dataclasses.replace(always, threshold=0.0)).predict(s["points"])
+    assert not any("low confidence" in w for w in ok.warnings)
+    with pytest.raises(InputError, match="parts"):
+        Estimator(raw.model, calibration=dataclasses.replace(always, part_bias=(0.0,)))
