@@ -91,7 +91,8 @@ def test_init_from_a_model_fine_tunes_its_weights(tmp_path):
     assert tuned.cfg.priors == base.cfg.priors  # the outputs stay relative to the base model's statistics
     assert tuned.cfg.lambda_seg == 1.0 and tuned.cfg.seg_weighting == "points"
     assert meta["info"]["initialised_from"] == {"model": str(tmp_path / "base"), "category": "laptop", "steps": 3,
-                                                "train_time_s": json.loads((tmp_path / "base" / "model_card.json").read_text())["train_time_s"]}
+                                                "train_time_s": json.loads((tmp_path / "base" / "model_card.json").read_text())["train_time_s"],
+                                                "reinitialised": []}
     with pytest.raises(InputError, match="cannot change"):
         train(tiny_train_config(tmp_path / "wide", init_from=str(tmp_path / "base"), model_overrides=dict(TINY, hidden=48)))
     with pytest.raises(InputError, match="'laptop' model cannot start a 'mug' run"):
