@@ -144,8 +144,8 @@ def test_state_error():
 
 
 def test_joint_errors_dicts():
-    rev = joint_errors(X, [0, 0.1, 1], 0.5, -X, [0, 0, 1], 0.4, "revolute")
-    assert rev["joint_type"] == "revolute" and rev["state_unit"] == "deg"
+    rev = joint_errors(X, [0, 0.1, 1], 0.5, X, [0, 0, 1], 0.4, "revolute")
+    assert rev["joint_type"] == "revolute" and rev["state_unit"] == "deg" and rev["axis_flipped"] is False
     assert rev["axis_deg"] == pytest.approx(0.0, abs=1e-12)
     assert rev["pivot_m"] == pytest.approx(0.1)
     assert rev["state_error"] == pytest.approx(math.degrees(0.1))
@@ -153,6 +153,29 @@ def test_joint_errors_dicts():
     assert pri["pivot_m"] is None and pri["state_unit"] == "m"
     assert pri["state_error"] == pytest.approx(0.05)
     json.dumps([rev, pri], allow_nan=False)
+
+
+def test_joint_state_error_is_measured_about_the_axis_sign_of_the_axis_error():
+    """A lid opened by 40 degrees about u: a prediction with perfect part poses whose axis came out as -u reads
+    the state about -u, -40 degrees.  The axis error ignores the sign (0 degrees), so the state error must too:
+    0, not 80 degrees.  The same for a drawer pulled 0.2 m along u, read as -0.2 m along -u."""
+    from ucope.geometry.kinematics import joint_state_from_poses
+
+    u, q = np.array([0.6, 0.0, 0.8]), math.radians(40.0)
+    parent = pose(None, (0.0, 0.0, 1.0))
+    child = pose(rotation_about_axis(u, q), (0.0, 0.0, 1.0))
+    q_pred = joint_state_from_poses(parent, child, -u, "revolute")
+    assert q_pred == pytest.approx(-q)
+    rev = joint_errors(-u, [0, 0, 1], q_pred, u, [0, 0, 1], q, "revolute")
+    assert rev["axis_deg"] == pytest.approx(0.0, abs=1e-9) and rev["axis_flipped"] is True
+    assert rev["state_error"] == pytest.approx(0.0, abs=1e-9)
+    pri = joint_errors(-u, None, -0.2, u, None, 0.2, "prismatic")
+    assert pri["state_error"] == pytest.approx(0.0, abs=1e-12) and pri["axis_flipped"] is True
+    # a flipped axis does not hide a wrong state: -30 degrees about -u is 30 about u, 10 degrees off
+    assert joint_errors(-u, [0, 0, 1], -math.radians(30), u, [0, 0, 1], q, 0)["state_error"] == pytest.approx(10.0)
+    # nearly perpendicular but on the far side still counts as flipped (the axis error's min(theta, 180 - theta))
+    tilted = rotation_about_axis(Y, math.radians(95.0)) @ u
+    assert joint_errors(tilted, [0, 0, 1], -q, u, [0, 0, 1], q, 0)["state_error"] == pytest.approx(0.0, abs=1e-9)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -334,24 +334,40 @@ def state_error(pred, gt, joint_type) -> float:
 def joint_errors(axis_pred, pivot_pred, state_pred, axis_gt, pivot_gt, state_gt, joint_type) -> dict:
     """All errors of one joint in one sample, as a JSON-friendly dict.
 
+    The axis error ignores the sign of the axis (:func:`axis_angle_error_deg`), so the state error is
+    measured about the same sign: a joint state is signed by its axis (turning by ``q`` about ``u`` is
+    turning by ``-q`` about ``-u``; sliding ``q`` along ``u`` is sliding ``-q`` along ``-u``), so when the
+    predicted axis points away from the ground truth's (``axis_pred . axis_gt < 0``) the predicted state
+    is negated before :func:`state_error` compares it.  A prediction that differs from the ground truth
+    only by the sign of its axis (and hence of its state) has zero axis and state errors.
+
     Args:
         axis_pred, axis_gt: ``(3,)`` joint axis directions, camera frame (normalised here).
         pivot_pred, pivot_gt: ``(3,)`` a point on each axis, camera frame, metres (ignored for prismatic
             joints, may be ``None`` there).
-        state_pred, state_gt: joint states, radians (revolute) or metres (prismatic).
+        state_pred, state_gt: joint states about / along their own axes, radians (revolute) or metres
+            (prismatic).
         joint_type: ``"revolute"`` / ``0`` or ``"prismatic"`` / ``1``.
 
     Returns:
         ``{"joint_type": "revolute" | "prismatic", "axis_deg": float, "pivot_m": float | None,
-        "state_error": float, "state_unit": "deg" | "m"}``; ``pivot_m`` (:func:`line_distance_m`) is
-        ``None`` for prismatic joints, whose axis has no location.
+        "state_error": float, "state_unit": "deg" | "m", "axis_flipped": bool}``; ``pivot_m``
+        (:func:`line_distance_m`) is ``None`` for prismatic joints, whose axis has no location;
+        ``axis_flipped`` says whether the predicted axis (and state) was turned round to the ground
+        truth's side.
+
+    Raises:
+        InputError: on a zero or malformed axis, a non-finite state or pivot, or an unknown joint type.
     """
     jt = _joint_type(joint_type)
+    flipped = bool(np.dot(_unit(axis_pred, "axis_pred"), _unit(axis_gt, "axis_gt")) < 0.0)
     out = {"joint_type": jt, "axis_deg": axis_angle_error_deg(axis_pred, axis_gt), "pivot_m": None}
     if jt == "revolute":
         out["pivot_m"] = line_distance_m(pivot_pred, axis_pred, pivot_gt, axis_gt)
-    out["state_error"] = state_error(state_pred, state_gt, jt)
+    state = _scalar(state_pred, "state_pred")
+    out["state_error"] = state_error(-state if flipped else state, state_gt, jt)
     out["state_unit"] = "deg" if jt == "revolute" else "m"
+    out["axis_flipped"] = flipped
     return out
 
 
