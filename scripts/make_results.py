@@ -199,7 +199,7 @@ def main() -> int:
     if rigid:
         sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
         from ucope.eval.evaluate import format_map_table  # noqa: F401  (same metric code as ucope eval)
-        from ucope.eval.metrics import compute_map
+        from ucope.eval.mean_ap import compute_map
 
         pooled = compute_map([rec for r in rigid.values() for rec in r["map_records"]])
         names = pooled["metrics"]

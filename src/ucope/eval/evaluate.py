@@ -32,9 +32,9 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
+from .mean_ap import compute_map
 from .metrics import (
     IOU_METHOD,
-    compute_map,
     joint_errors,
     part_errors,
     segmentation_accuracy,
