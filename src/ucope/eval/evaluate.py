@@ -314,19 +314,24 @@ def format_map_table(m: Mapping, indent: str = "") -> str:
     """The figures of :func:`ucope.eval.mean_ap.compute_map` in percent, as the paper's Table 1: per class
     and metric the AP, then in brackets the score-free fraction (the best recall any ranking reaches)."""
     names = list(m["metrics"])
-    protocol = m.get("protocol", "exact")
-    title = "mAP (%), exact protocol" if protocol == "exact" else "mAP (%), NOCS reference protocol"
+    protocol = m.get("protocol")  # None: a report from before the protocols had names
+    title = {"exact": "mAP (%), exact protocol", "nocs": "mAP (%), NOCS reference protocol"}.get(protocol, "mAP (%)")
     rows = [indent + f"{title}: AP (score-free fraction)", indent + " " * 9 + "  ".join(f"{n:>13s}" for n in names)]
 
+    fraction = m.get("fraction") or {"mean": {}, "per_class": {}}  # (absent from reports older than the fractions)
+
     def row(label, ap, frac):
-        return indent + f"{label:8s} " + "  ".join(f"{100 * ap[n]:5.1f} ({100 * frac[n]:5.1f})" for n in names)
+        return indent + f"{label:8s} " + "  ".join(
+            f"{100 * ap[n]:5.1f} ({100 * frac[n]:5.1f})" if n in frac else f"{100 * ap[n]:5.1f}        " for n in names)
 
     for cls in m["classes_with_gt"]:
-        rows.append(row(cls, m["per_class"][cls], m["fraction"]["per_class"][cls]))
+        rows.append(row(cls, m["per_class"][cls], fraction["per_class"].get(cls, {})))
     if len(m["classes_with_gt"]) > 1:
-        rows.append(row("mean", m["mean"], m["fraction"]["mean"]))
+        rows.append(row("mean", m["mean"], fraction["mean"]))
     tied = sum(m.get("num_tied", {}).values())
-    if protocol == "exact":
+    if protocol is None:
+        note = "(computed by an older ucope: see the report's iou_method and matching"
+    elif protocol == "exact":
         note = "(IoU: exact oriented boxes; tied scores count as one operating point"
     else:
         note = ("(IoU: the NOCS code's, not an IoU; pose metrics over the views matched at IoU > 0.1; "
