@@ -118,7 +118,8 @@ def translation_against_paper(reports: Path) -> str:
         return ""
     lower = total - len(higher)
     return (f"Translation against the paper's Table 2, in metres: our mean error is lower for {lower} of {total} parts"
-            + (f" and higher for: {' and '.join([', '.join(higher[:-1]), higher[-1]] if len(higher) > 1 else higher)}" if higher else "")
+            + (f" and higher for: {' and '.join([', '.join(higher[:-1]), higher[-1]] if len(higher) > 1 else higher)}"
+               if higher else "")
             + ". The units may differ as well: the paper's metric section says its translation errors are normalised, "
             "its table prints metres; ours are metres (the reports also hold them divided by each part's box diagonal).")
 
@@ -311,8 +312,9 @@ def main() -> int:
     rerun = sorted(p.stem for p in R.glob("*.json")
                    if (rep := load(R, p.stem) or {}).get("category") in ARTICULATED and rep.get("refreshed"))
     if rerun:
-        out += [f"The joint state errors of the reports {', '.join(rerun)} were recomputed after the metric changed (a state is now "
-                "compared about the axis sign that the axis error chose): their commands were re-run on the regenerated test splits, "
+        out += [f"The joint state errors of the reports {', '.join(rerun)} were recomputed after the metric changed (a state is "
+                "now compared about the axis sign that the axis error chose): their commands were re-run on the regenerated test "
+                "splits, "
                 "reproduced every other figure, and only the state errors were replaced (the reports' `refreshed` field).", ""]
 
     # ---------------------------------------------------------------------------- Table 1 (rigid)
@@ -325,12 +327,15 @@ def main() -> int:
         out += ["## Rigid objects (Table 1 shape): NOCS-style mAP", "",
                 f"Per class and mean over {len(exact['classes'])} classes, one object per view, so the AP of a class is the "
                 "precision-recall area of its views ranked by our part score. Bottle, bowl, can and mugs whose handle is not "
-                "visible are evaluated as symmetric about y (NOCS rules, anchors.md section 3). Each cell: the AP, and in brackets "
-                "the **score-free fraction**: the percentage of views whose pose passes the threshold, i.e. the recall a perfect "
-                "ranking would reach, which does not depend on the scores. Two protocols ([metrics.md](metrics.md)): ours, with the "
-                "exact IoU and tied scores counted as one operating point (no figure depends on the order of the records), and the "
-                "NOCS reference code's, as it runs, which the paper's Table 1 was computed with: its IoU is not an IoU (a max taken "
-                "over the wrong array axis) and its pose columns count only the views matched at that IoU > 0.1. Only the second is "
+                "visible are evaluated as symmetric about y (NOCS rules, anchors.md section 3). Each cell: the AP, and in "
+                "brackets the **score-free fraction**: the percentage of views whose pose passes the threshold, i.e. the recall "
+                "a "
+                "perfect ranking would reach, which does not depend on the scores. Two protocols ([metrics.md](metrics.md)): "
+                "ours, with the exact IoU and tied scores counted as one operating point (no figure depends on the order of the "
+                "records), and the NOCS reference code's, as it runs, which the paper's Table 1 was computed with: its IoU is "
+                "not "
+                "an IoU (a max taken over the wrong array axis) and its pose columns count only the views matched at that IoU > "
+                "0.1. Only the second is "
                 "comparable with the paper's row; neither is a like-for-like benchmark (different data).", "",
                 "### Our protocol (exact IoU)", "",
                 "| class | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
@@ -339,7 +344,8 @@ def main() -> int:
             bex = pool_maps(list(base.values()), "map")
             sub = {"mean": {n: mean_of(exact, bex["classes"], "ap", n) for n in names},
                    "mean_fraction": {n: mean_of(exact, bex["classes"], "fraction", n) for n in names}}
-            out.append(f"| direct regression ({', '.join(bex['classes'])}) | " + map_cells(bex["mean"], bex["mean_fraction"], names) + " |")
+            out.append(f"| direct regression ({', '.join(bex['classes'])}) | "
+                       + map_cells(bex["mean"], bex["mean_fraction"], names) + " |")
             out.append("| U-COPE (ours) on the same classes | " + map_cells(sub["mean"], sub["mean_fraction"], names) + " |")
         out += ["", "### NOCS's reference protocol (the paper's)", "",
                 "| class | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
@@ -348,16 +354,19 @@ def main() -> int:
         ties, bex = [], pool_maps(list(base.values()), "map") if base else None
         if base:
             bno = pool_maps(list(base.values()), "map_nocs")
-            out.append(f"| direct regression ({', '.join(bno['classes'])}) | " + map_cells(bno["mean"], bno["mean_fraction"], names) + " |")
+            out.append(f"| direct regression ({', '.join(bno['classes'])}) | "
+                       + map_cells(bno["mean"], bno["mean_fraction"], names) + " |")
             ties = [f"{n} {100 * bno['mean_tie_range'][n][0]:.1f}-{100 * bno['mean_tie_range'][n][1]:.1f}" for n in names
                     if bno["mean_tie_range"][n][1] - bno["mean_tie_range"][n][0] > 5e-4]
         tied = sum(v for m in rigid.values() for v in m["map_nocs"].get("num_tied", {}).values())
-        out += ["", "Under the NOCS protocol, tied scores are ranked in reverse record order, so an AP with ties depends on the order "
-                "of the records" + (f" ({tied} of our {sum(exact['num_pred'].values())} predictions share their score with another; "
-                                    "over all their orders the means above move by at most "
-                                    f"{100 * max(hi - lo for lo, hi in nocs['mean_tie_range'].values()):.2f} points)" if tied else "") + "."
-                + (f" The direct-regression baseline gives every view the score 1.0, so its NOCS row is one of many: over all orders of "
-                   f"its records it spans {', '.join(ties)}. Under our protocol a tie is one operating point, which gives the lowest "
+        spread = max(hi - lo for lo, hi in nocs["mean_tie_range"].values())
+        out += ["", "Under the NOCS protocol, tied scores are ranked in reverse record order, so an AP with ties depends on the "
+                "order of the records"
+                + (f" ({tied} of our {sum(exact['num_pred'].values())} predictions share their score with another; "
+                   f"over all their orders the means above move by at most {100 * spread:.2f} points)" if tied else "") + "."
+                + (" The direct-regression baseline gives every view the score 1.0, so its NOCS row is one of many: over all "
+                   f"orders of its records it spans {', '.join(ties)}. Under our protocol a tie is one operating point, which "
+                   "gives the lowest "
                    "AP over the orders (a ranking that orders nothing earns nothing for its order: "
                    + ", ".join(f"{n} {100 * bex['mean'][n]:.1f} of {100 * bex['mean_tie_range'][n][0]:.1f}-"
                                f"{100 * bex['mean_tie_range'][n][1]:.1f}" for n in names
@@ -376,7 +385,8 @@ def main() -> int:
         refreshed = [c for c in list(rigid) + [f"{c}_regression" for c in base] if (load(R, c) or {}).get("refreshed")]
         if refreshed:
             out += [f"The figures of {', '.join(refreshed)} were recomputed from the per-view records their reports store, "
-                    "after the metrics changed (the reports' `refreshed` field); the predictions and times are those of the commands.", ""]
+                    "after the metrics changed (the reports' `refreshed` field); the predictions and times are those of the "
+                    "commands.", ""]
         lines = [training_line(r) for r in rigid.values()]
         if any(lines):
             out += ["Training: " + "; ".join(f"{c}: {line}" for c, line in zip(rigid, lines) if line) + ".", ""]

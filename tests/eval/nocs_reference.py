@@ -224,7 +224,8 @@ def nocs_map(records, iou="nocs", use_matches_for_pose=True):
             if use_matches_for_pose:
                 keep_pred = iou_pred_match[0, :] > -1
                 keep_gt = iou_gt_match[0, :] > -1
-                cls_pred_ids, cls_pred_RTs, cls_pred_scores = cls_pred_ids[keep_pred], cls_pred_RTs[keep_pred], cls_pred_scores[keep_pred]
+                cls_pred_ids, cls_pred_RTs = cls_pred_ids[keep_pred], cls_pred_RTs[keep_pred]
+                cls_pred_scores = cls_pred_scores[keep_pred]
                 cls_gt_ids, cls_gt_RTs, cls_gt_handle = cls_gt_ids[keep_gt], cls_gt_RTs[keep_gt], cls_gt_handle[keep_gt]
             RT_overlaps = compute_RT_overlaps(cls_gt_ids, cls_gt_RTs, cls_gt_handle, cls_pred_ids, cls_pred_RTs)
             pose_gt_match, pose_pred_match = compute_RT_matches(RT_overlaps, DEGREE_THRESHOLDS, SHIFT_THRESHOLDS_CM)

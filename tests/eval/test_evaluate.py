@@ -123,7 +123,8 @@ def test_a_mug_with_a_hidden_handle_is_symmetric_in_its_part_errors_too():
 
 def test_rigid_figures_recompute_a_report_from_its_records():
     """What the committed reports are refreshed with must be what `ucope eval` writes."""
-    for category, oracle in (("mug", Oracle("mug", angle_deg=7.0, axis="y", shift_m=0.01)), ("bottle", Oracle("bottle", angle_deg=3.0))):
+    oracles = (("mug", Oracle("mug", angle_deg=7.0, axis="y", shift_m=0.01)), ("bottle", Oracle("bottle", angle_deg=3.0)))
+    for category, oracle in oracles:
         rep = evaluate(oracle, samples(category), progress=False)
         again = rigid_figures(json.loads(json.dumps(rep["map_records"])), rep["part_symmetry"][0])
         assert again["map"] == rep["map"] and again["map_nocs"] == rep["map_nocs"]

@@ -265,7 +265,8 @@ def test_nocs_reference_iou_matches_the_reference_layout():
     rng = np.random.default_rng(5)
     for symmetric in (False, True):
         for _ in range(10):
-            Tg = make_transform(Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix(), rng.uniform(-0.2, 0.2, 3) + [0, 0, 1])
+            R = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
+            Tg = make_transform(R, rng.uniform(-0.2, 0.2, 3) + [0, 0, 1])
             sg = rng.uniform(0.05, 0.3, 3)
             Tp = Tg @ make_transform(rot(rng.normal(size=3), rng.uniform(0, 30)), rng.normal(0, 0.02, 3))
             sp = sg * rng.uniform(0.8, 1.2, 3)

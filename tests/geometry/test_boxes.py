@@ -204,7 +204,8 @@ def test_symmetric_y_finds_the_higher_of_two_near_equal_peaks():
     assert dense == pytest.approx(0.89976, abs=1e-5)
     iou, theta = box_iou_3d_symmetric_y(T_gt, size_gt, T_pred, size_pred, return_angle=True)
     assert dense - 1e-9 <= iou <= dense + 1e-5
-    assert box_iou_3d(T_gt, size_gt, T_pred @ make_transform(_rot_y(np.degrees(theta))), size_pred) == pytest.approx(iou, abs=1e-12)
+    turned = T_pred @ make_transform(_rot_y(np.degrees(theta)))
+    assert box_iou_3d(T_gt, size_gt, turned, size_pred) == pytest.approx(iou, abs=1e-12)
 
 
 def test_symmetric_y_is_the_global_maximum_on_random_near_boxes():
