@@ -1,18 +1,26 @@
-"""Evaluation: per-part pose, joint and segmentation metrics and NOCS-style mAP (:mod:`ucope.eval.metrics`).
+"""Evaluation: per-part pose, joint and segmentation metrics (:mod:`ucope.eval.metrics`) and NOCS-style
+mAP under our exact protocol or NOCS's (:mod:`ucope.eval.mean_ap`).
 
 Imports only from :mod:`ucope.geometry` (and :mod:`ucope.errors`).
 """
 
 from __future__ import annotations
 
+from .mean_ap import (
+    NOCS_IOU_METHOD,
+    PROTOCOLS,
+    average_precision,
+    compute_map,
+    nocs_average_precision,
+    nocs_reference_iou,
+    tie_range,
+)
 from .metrics import (
     IOU_METHOD,
     NOCS_SYMMETRIC_CLASSES,
     SYMMETRIES,
-    average_precision,
     axis_angle_error_deg,
     box_iou,
-    compute_map,
     joint_errors,
     line_distance_m,
     normalized_translation_error,
@@ -28,7 +36,9 @@ from .metrics import (
 
 __all__ = [
     "IOU_METHOD",
+    "NOCS_IOU_METHOD",
     "NOCS_SYMMETRIC_CLASSES",
+    "PROTOCOLS",
     "SYMMETRIES",
     "average_precision",
     "axis_angle_error_deg",
@@ -36,6 +46,8 @@ __all__ = [
     "compute_map",
     "joint_errors",
     "line_distance_m",
+    "nocs_average_precision",
+    "nocs_reference_iou",
     "normalized_translation_error",
     "part_errors",
     "rotation_error_deg",
@@ -44,5 +56,6 @@ __all__ = [
     "state_error",
     "summarize_joints",
     "summarize_parts",
+    "tie_range",
     "translation_error_m",
 ]

@@ -11,14 +11,19 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
      "joints": summarize_joints(...) | None,
      "segmentation": {"iou": [K], "accuracy"} | None,     # means over samples (K >= 2)
      "time_ms": {"mean": {stage: ms}, "median": {stage: ms}},
-     "map": compute_map(...) | None,         # rigid (K = 1) categories: NOCS-style mAP, exact IoU
-     "map_records": [...] | None,            # its inputs, to pool several categories (Table 1)
+     "map": compute_map(...) | None,         # rigid (K = 1) categories: NOCS-style mAP, our exact protocol
+     "map_nocs": compute_map(..., protocol="nocs") | None,   # the same under NOCS's reference protocol
+     "map_records": [...] | None,            # their inputs (one GT, one prediction per view)
      "iou_method": ..., "hardware": {...}, "ucope_version": ...,
      "samples": [{"index", "instance_id", "parts": [part_errors], "joints": [joint_errors],
                   "segmentation_iou": [K], "time_ms"}]}
 
 :func:`format_report` prints it as the paper's tables print (rotation in degrees, translation in
-metres, IoU in percent, time in seconds). Frames and units as in :mod:`ucope.eval.metrics`.
+metres, IoU in percent, time in seconds), means with medians beside them. :func:`rigid_figures`
+recomputes a rigid category's per-part summary and both mAPs from its ``map_records`` alone (how the
+committed reports' figures are refreshed when a metric changes). A mug whose handle is not visible is
+evaluated as symmetric about y in its per-part errors as in its mAP (NOCS's rule). Frames and units as in
+:mod:`ucope.eval.metrics`.
 """
 
 from __future__ import annotations
@@ -32,9 +37,9 @@ import numpy as np
 
 from ..versions import __version__
 from ..errors import InputError
+from .mean_ap import compute_map
 from .metrics import (
     IOU_METHOD,
-    compute_map,
     joint_errors,
     part_errors,
     segmentation_accuracy,
@@ -43,8 +48,8 @@ from .metrics import (
     summarize_parts,
 )
 
-__all__ = ["EVAL_FORMAT", "evaluate", "sample_errors", "mug_handle_visible", "nocs_class", "map_records_of",
-           "format_report", "format_map_table"]
+__all__ = ["EVAL_FORMAT", "evaluate", "format_map_table", "format_report", "map_record_part_errors", "map_records_of",
+           "mug_handle_visible", "nocs_class", "rigid_figures", "sample_errors"]
 
 EVAL_FORMAT = "ucope-eval/1"
 
@@ -71,6 +76,12 @@ def mug_handle_visible(sample: Mapping, min_points: int = 20, margin_m: float = 
     return int(np.count_nonzero(local[:, 0] > -0.5 * sx + sz + margin_m)) >= int(min_points)
 
 
+def part_symmetry(category: str, symmetry: str, handle_visible: bool = True) -> str:
+    """The symmetry a rigid part is evaluated with: its own, or ``"y"`` for a mug whose handle is not
+    visible (NOCS's rule, the same in the per-part errors as in the mAP)."""
+    return "y" if nocs_class(category) == "mug" and not handle_visible else symmetry
+
+
 def sample_errors(result, sample: Mapping) -> dict:
     """Every metric of one prediction against one data-set sample.
 
@@ -81,13 +92,18 @@ def sample_errors(result, sample: Mapping) -> dict:
 
     Returns:
         ``{"parts": [K part_errors], "joints": [J joint_errors], "segmentation_iou": [K] | None,
-        "segmentation_accuracy": float | None}`` (IoU ``None`` for a part absent from both).
+        "segmentation_accuracy": float | None}`` (IoU ``None`` for a part absent from both).  A mug whose
+        handle is not visible (:func:`mug_handle_visible`) gets the symmetric errors (angle between the y
+        axes, best IoU over turns about y), as in its mAP.
     """
     K = len(sample["size_m"])
     if len(result.parts) != K or len(result.joints) != len(sample["joint_type"]):
         raise InputError(f"the result has {len(result.parts)} parts / {len(result.joints)} joints, the sample "
                          f"{K} / {len(sample['joint_type'])}: model and data set are of different categories")
-    parts = [part_errors(p.cam_from_part, p.size_m, sample["cam_from_part"][k], sample["size_m"][k], p.symmetry)
+    category = str(sample.get("category", ""))
+    visible = mug_handle_visible(sample) if K == 1 and nocs_class(category) == "mug" else True
+    parts = [part_errors(p.cam_from_part, p.size_m, sample["cam_from_part"][k], sample["size_m"][k],
+                         part_symmetry(category, p.symmetry, visible) if K == 1 else p.symmetry)
              for k, p in enumerate(result.parts)]
     # A joint whose ground-truth axis is unknown (NaN: BOP scenes have no joints) is not measured (None).
     joints = [joint_errors(j.axis, j.pivot_m, j.state, sample["joint_axis"][i], sample["joint_pivot"][i],
@@ -116,6 +132,41 @@ def map_records_of(results: Sequence, samples: Sequence[Mapping]) -> list[dict]:
         out.append({"gt": [gt], "pred": [{"class": cls, "cam_from_object": np.asarray(p.cam_from_part).tolist(),
                                           "size_m": np.asarray(p.size_m).tolist(), "score": float(p.score)}]})
     return out
+
+
+def map_record_part_errors(record: Mapping, symmetry: str) -> dict:
+    """:func:`ucope.eval.metrics.part_errors` of a rigid view from its :func:`map_records_of` record.
+
+    Args:
+        record: ``{"gt": [one object], "pred": [one object]}`` as :func:`map_records_of` writes it.
+        symmetry: the part's own symmetry (the report's ``part_symmetry[0]``); a mug whose ground truth
+            says ``handle_visible: False`` is evaluated as ``"y"`` (:func:`part_symmetry`).
+
+    Returns:
+        The part_errors dict (rotation degrees, translation metres and normalised, exact IoU).
+    """
+    if len(record.get("gt", ())) != 1 or len(record.get("pred", ())) != 1:
+        raise InputError("a rigid view's record must hold exactly one ground truth and one prediction")
+    gt, pred = record["gt"][0], record["pred"][0]
+    sym = part_symmetry(gt["class"], symmetry, bool(gt.get("handle_visible", True)))
+    return part_errors(pred["cam_from_object"], pred["size_m"], gt["cam_from_object"], gt["size_m"], sym)
+
+
+def rigid_figures(map_records: Sequence[Mapping], symmetry: str) -> dict:
+    """A rigid category's per-part summary and mAPs, from its per-view records alone.
+
+    Args:
+        map_records: one record per view (:func:`map_records_of`), e.g. a report's ``map_records``.
+        symmetry: the part's own symmetry (``"none"`` or ``"y"``).
+
+    Returns:
+        ``{"parts": summarize_parts(...), "map": compute_map(records), "map_nocs": compute_map(records,
+        protocol="nocs")}``: what :func:`evaluate` writes under those keys for a rigid category (the
+        report's per-view errors are exactly these, so a report can be refreshed without predicting again).
+    """
+    parts = [[map_record_part_errors(r, symmetry)] for r in map_records]
+    return {"parts": summarize_parts(parts), "map": compute_map(map_records),
+            "map_nocs": compute_map(map_records, protocol="nocs")}
 
 
 def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_info: Mapping | None = None,
@@ -181,7 +232,8 @@ def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_
         "part_names": list(cfg.part_names),
         "part_symmetry": [p.symmetry for p in cfg.priors.parts],
         "settings": {"num_pairs": estimator.num_pairs, "awareness": estimator.awareness,
-                     "refine": estimator.refine, "resolve_flips": getattr(estimator, "resolve_flips", False), "seed": estimator.seed},
+                     "refine": estimator.refine, "resolve_flips": getattr(estimator, "resolve_flips", False),
+                     "seed": estimator.seed},
         "data": dict(data_info or {}, num_samples=n),
         "parts": summarize_parts([e["parts"] for e in records]),
         "joints": summarize_joints([e["joints"] for e in records]) if cfg.num_joints else None,
@@ -189,6 +241,7 @@ def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_
         "time_ms": {"mean": {k: float(np.mean(v)) for k, v in times.items()},
                     "median": {k: float(np.median(v)) for k, v in times.items()}},
         "map": compute_map(map_records) if rigid else None,
+        "map_nocs": compute_map(map_records, protocol="nocs") if rigid else None,
         "map_records": map_records,
         "iou_method": IOU_METHOD,
         "ucope_version": __version__,
@@ -208,49 +261,82 @@ def _cells(values: Sequence, fmt: str, scale: float = 1.0) -> str:
     return ", ".join("-" if v is None else fmt.format(v * scale) for v in values)
 
 
-def format_report(report: Mapping, stat: str = "mean") -> str:
-    """A Table-2 shaped text table of a report (and the mAP of a rigid category, Table-1 shaped).
+def _stat_cells(stats: Mapping, fmt: str, scale: float = 1.0, unit: Sequence[str] | None = None) -> str:
+    """``"mean cells (median cells)"`` of a ``{"mean": [...], "median": [...]}`` summary."""
+    def cells(values):
+        if unit is None:
+            return _cells(values, fmt, scale)
+        return ", ".join("-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m") for v, u in zip(values, unit))
+
+    return f"{cells(stats['mean'])}  (median {cells(stats['median'])})"
+
+
+def format_report(report: Mapping) -> str:
+    """A Table-2 shaped text table of a report, means with medians beside them (and both mAP tables of a
+    rigid category, Table-1 shaped).
 
     Args:
         report: an :func:`evaluate` report.
-        stat: ``"mean"`` (the paper's) or ``"median"``.
+
+    Returns:
+        The text; each error row reads ``means  (median medians)``, one value per part or joint.
     """
     p = report["parts"]
     head = report.get("head", "voting")
     name = "U-COPE (ours)" if head == "voting" else "direct regression (baseline)"
     lines = [
         f"{report['category']} ({report['data'].get('num_samples')} samples, {name}, "
-        f"{report['settings']['num_pairs']} pairs, awareness {'on' if report['settings']['awareness'] else 'off'}); {stat}s",
+        f"{report['settings']['num_pairs']} pairs, awareness {'on' if report['settings']['awareness'] else 'off'}); "
+        "means (medians)",
         f"  parts: {', '.join(report['part_names'])}",
-        f"  rotation error (deg)    {_cells(p['rotation_deg'][stat], '{:.1f}')}",
-        f"  translation error (m)   {_cells(p['translation_m'][stat], '{:.3f}')}",
-        f"  3D IoU (%)              {_cells(p['iou'][stat], '{:.1f}', 100.0)}",
+        f"  rotation error (deg)    {_stat_cells(p['rotation_deg'], '{:.1f}')}",
+        f"  translation error (m)   {_stat_cells(p['translation_m'], '{:.3f}')}",
+        f"  3D IoU (%)              {_stat_cells(p['iou'], '{:.1f}', 100.0)}",
         f"  5deg5cm (%)             {_cells(p['fraction']['5deg5cm'], '{:.1f}', 100.0)}",
-        f"  inference time (s)      {report['time_ms'][stat]['total'] / 1000.0:.3f}",
+        f"  inference time (s)      {report['time_ms']['mean']['total'] / 1000.0:.3f}  "
+        f"(median {report['time_ms']['median']['total'] / 1000.0:.3f})",
     ]
     j = report.get("joints")
     if j:
-        lines.append(f"  joint axis error (deg)  {_cells(j['axis_deg'][stat], '{:.1f}')}")
+        lines.append(f"  joint axis error (deg)  {_stat_cells(j['axis_deg'], '{:.1f}')}")
         if any(t == "revolute" for t in j["joint_type"]):
-            lines.append(f"  joint pivot error (m)   {_cells(j['pivot_m'][stat], '{:.3f}')}")
-        units = ["deg" if u == "deg" else "m" for u in j["state_unit"]]
-        lines.append(f"  joint state error       " + ", ".join(
-            "-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m") for v, u in zip(j["state_error"][stat], units)))
+            lines.append(f"  joint pivot error (m)   {_stat_cells(j['pivot_m'], '{:.3f}')}")
+        lines.append(f"  joint state error       {_stat_cells(j['state_error'], '', unit=j['state_unit'])}")
     seg = report.get("segmentation")
     if seg:
         lines.append(f"  segmentation IoU (%)    {_cells(seg['iou'], '{:.1f}', 100.0)}; accuracy {100 * seg['accuracy']:.1f}%")
     if report.get("map"):
         lines.append(format_map_table(report["map"], indent="  "))
+    if report.get("map_nocs"):
+        lines.append(format_map_table(report["map_nocs"], indent="  "))
     return "\n".join(lines)
 
 
 def format_map_table(m: Mapping, indent: str = "") -> str:
-    """The mAP figures of :func:`ucope.eval.metrics.compute_map` in percent, as the paper's Table 1."""
+    """The figures of :func:`ucope.eval.mean_ap.compute_map` in percent, as the paper's Table 1: per class
+    and metric the AP, then in brackets the score-free fraction (the best recall any ranking reaches)."""
     names = list(m["metrics"])
-    rows = [indent + "mAP (%)  " + "  ".join(f"{n:>8s}" for n in names)]
+    protocol = m.get("protocol")  # None: a report from before the protocols had names
+    title = {"exact": "mAP (%), exact protocol", "nocs": "mAP (%), NOCS reference protocol"}.get(protocol, "mAP (%)")
+    rows = [indent + f"{title}: AP (score-free fraction)", indent + " " * 9 + "  ".join(f"{n:>13s}" for n in names)]
+
+    fraction = m.get("fraction") or {"mean": {}, "per_class": {}}  # (absent from reports older than the fractions)
+
+    def row(label, ap, frac):
+        return indent + f"{label:8s} " + "  ".join(
+            f"{100 * ap[n]:5.1f} ({100 * frac[n]:5.1f})" if n in frac else f"{100 * ap[n]:5.1f}        " for n in names)
+
     for cls in m["classes_with_gt"]:
-        rows.append(indent + f"{cls:8s} " + "  ".join(f"{100 * m['per_class'][cls][n]:8.1f}" for n in names))
+        rows.append(row(cls, m["per_class"][cls], fraction["per_class"].get(cls, {})))
     if len(m["classes_with_gt"]) > 1:
-        rows.append(indent + f"{'mean':8s} " + "  ".join(f"{100 * m['mean'][n]:8.1f}" for n in names))
-    rows.append(indent + "(IoU: exact oriented boxes, not NOCS's axis-aligned approximation)")
+        rows.append(row("mean", m["mean"], fraction["mean"]))
+    tied = sum(m.get("num_tied", {}).values())
+    if protocol is None:
+        note = "(computed by an older ucope: see the report's iou_method and matching"
+    elif protocol == "exact":
+        note = "(IoU: exact oriented boxes; tied scores count as one operating point"
+    else:
+        note = ("(IoU: the NOCS code's, not an IoU; pose metrics over the views matched at IoU > 0.1; "
+                "tied scores ranked last record first")
+    rows.append(indent + note + (f"; {tied} predictions share a score" if tied else "") + ")")
     return "\n".join(rows)

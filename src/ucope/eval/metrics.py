@@ -1,4 +1,6 @@
-"""Evaluation metrics: per-part 9D pose errors, joint errors, segmentation and NOCS-style mAP.
+"""Evaluation metrics: per-part 9D pose errors, joint errors, segmentation and their summaries.
+
+The NOCS-style mAP of rigid categories is in :mod:`ucope.eval.mean_ap`.
 
 Plain numpy functions, one per metric, in the spirit of the BOP toolkit. Conventions (see also
 docs/conventions.md and docs/metrics.md):
@@ -48,8 +50,6 @@ __all__ = [
     "joint_errors",
     "segmentation_iou",
     "segmentation_accuracy",
-    "average_precision",
-    "compute_map",
     "summarize_parts",
     "summarize_joints",
 ]
@@ -60,7 +60,7 @@ SYMMETRIES = ("none", "y")
 #: NOCS classes treated as symmetric about y (a mug too when its handle is not visible).
 NOCS_SYMMETRIC_CLASSES = ("bottle", "bowl", "can")
 
-#: How every IoU in this module is computed (also written into :func:`compute_map`'s result).
+#: How every IoU in this module is computed (also written into :func:`ucope.eval.mean_ap.compute_map`'s result).
 IOU_METHOD = (
     "exact oriented 3D box IoU (ucope.geometry.boxes.box_iou_3d, convex polyhedron intersection); "
     "not the NOCS reference code's axis-aligned-in-camera-frame approximation"
@@ -222,8 +222,9 @@ def box_iou(cam_from_part_pred, size_pred, cam_from_part_gt, size_gt, symmetry: 
         symmetry: ``"none"``: the IoU of the two oriented boxes
             (:func:`ucope.geometry.boxes.box_iou_3d`); ``"y"``: the best IoU over rotations of the
             predicted box about its own y axis (:func:`ucope.geometry.boxes.box_iou_3d_symmetric_y`:
-            a sweep of ``num_angles`` angles over [0, pi) refined by a bounded 1-D search).
-        num_angles: sweep resolution for ``symmetry="y"`` (ignored otherwise).
+            the global maximum over the angle, certified to 1e-3 by a Lipschitz bound and refined to
+            about 1e-7).
+        num_angles: starting angles of that search for ``symmetry="y"`` (ignored otherwise).
 
     Returns:
         IoU in ``[0, 1]`` as a Python ``float``: exact (convex polyhedron intersection), not NOCS's
@@ -333,24 +334,40 @@ def state_error(pred, gt, joint_type) -> float:
 def joint_errors(axis_pred, pivot_pred, state_pred, axis_gt, pivot_gt, state_gt, joint_type) -> dict:
     """All errors of one joint in one sample, as a JSON-friendly dict.
 
+    The axis error ignores the sign of the axis (:func:`axis_angle_error_deg`), so the state error is
+    measured about the same sign: a joint state is signed by its axis (turning by ``q`` about ``u`` is
+    turning by ``-q`` about ``-u``; sliding ``q`` along ``u`` is sliding ``-q`` along ``-u``), so when the
+    predicted axis points away from the ground truth's (``axis_pred . axis_gt < 0``) the predicted state
+    is negated before :func:`state_error` compares it.  A prediction that differs from the ground truth
+    only by the sign of its axis (and hence of its state) has zero axis and state errors.
+
     Args:
         axis_pred, axis_gt: ``(3,)`` joint axis directions, camera frame (normalised here).
         pivot_pred, pivot_gt: ``(3,)`` a point on each axis, camera frame, metres (ignored for prismatic
             joints, may be ``None`` there).
-        state_pred, state_gt: joint states, radians (revolute) or metres (prismatic).
+        state_pred, state_gt: joint states about / along their own axes, radians (revolute) or metres
+            (prismatic).
         joint_type: ``"revolute"`` / ``0`` or ``"prismatic"`` / ``1``.
 
     Returns:
         ``{"joint_type": "revolute" | "prismatic", "axis_deg": float, "pivot_m": float | None,
-        "state_error": float, "state_unit": "deg" | "m"}``; ``pivot_m`` (:func:`line_distance_m`) is
-        ``None`` for prismatic joints, whose axis has no location.
+        "state_error": float, "state_unit": "deg" | "m", "axis_flipped": bool}``; ``pivot_m``
+        (:func:`line_distance_m`) is ``None`` for prismatic joints, whose axis has no location;
+        ``axis_flipped`` says whether the predicted axis (and state) was turned round to the ground
+        truth's side.
+
+    Raises:
+        InputError: on a zero or malformed axis, a non-finite state or pivot, or an unknown joint type.
     """
     jt = _joint_type(joint_type)
+    flipped = bool(np.dot(_unit(axis_pred, "axis_pred"), _unit(axis_gt, "axis_gt")) < 0.0)
     out = {"joint_type": jt, "axis_deg": axis_angle_error_deg(axis_pred, axis_gt), "pivot_m": None}
     if jt == "revolute":
         out["pivot_m"] = line_distance_m(pivot_pred, axis_pred, pivot_gt, axis_gt)
-    out["state_error"] = state_error(state_pred, state_gt, jt)
+    state = _scalar(state_pred, "state_pred")
+    out["state_error"] = state_error(-state if flipped else state, state_gt, jt)
     out["state_unit"] = "deg" if jt == "revolute" else "m"
+    out["axis_flipped"] = flipped
     return out
 
 
@@ -422,276 +439,12 @@ def segmentation_accuracy(pred_labels, gt_labels) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# NOCS-style mAP (rigid categories)
+# Metric names (shared with ucope.eval.mean_ap)
 # --------------------------------------------------------------------------------------------------
-
-
-def average_precision(tp, scores, num_gt: int) -> float:
-    """Average precision with VOC all-point interpolation (as NOCS uses it).
-
-    Detections are sorted by descending score (a stable sort: ties keep their given order). With
-    precision ``P_i`` and recall ``R_i = (#TP among the first i) / num_gt`` after the i-th detection,
-    the precision envelope ``P~(r) = max_{R_i >= r} P_i`` is integrated over recall:
-    ``AP = sum_i (R_i - R_{i-1}) * P~(R_i)`` with ``R_0 = 0``.  Recall never reached adds nothing.
-
-    Args:
-        tp: ``(D,)`` 1/0 (int, float or bool) per detection: matched to a ground-truth object or not.
-        scores: ``(D,)`` finite detection scores (higher = more confident).
-        num_gt: number of ground-truth objects (>= 1, and >= the number of true positives).
-
-    Returns:
-        AP in ``[0, 1]`` as a Python ``float`` (0.0 when there are no detections).
-    """
-    tp = np.asarray(tp)
-    if tp.ndim != 1 or not (tp.dtype == bool or np.issubdtype(tp.dtype, np.number)) or np.any((tp != 0) & (tp != 1)):
-        raise InputError(f"tp must be a (D,) array of 0/1 or booleans, got shape {tp.shape}, dtype {tp.dtype}")
-    scores = np.asarray(scores, dtype=np.float64) if np.size(scores) else np.zeros(0)
-    if scores.shape != tp.shape or not np.all(np.isfinite(scores)):
-        raise InputError(f"scores must be a finite array of shape {tp.shape}, got {scores.shape}")
-    if isinstance(num_gt, (bool, np.bool_)) or not isinstance(num_gt, (int, np.integer)) or num_gt < 1:
-        raise InputError(f"num_gt must be an integer >= 1 (AP is undefined without ground truth), got {num_gt!r}")
-    if int(tp.sum()) > num_gt:
-        raise InputError(f"{int(tp.sum())} true positives but only num_gt = {num_gt} ground-truth objects")
-    if tp.size == 0:
-        return 0.0
-    hits = tp[np.argsort(-scores, kind="stable")].astype(np.float64)
-    ctp = np.cumsum(hits)
-    precision = ctp / np.arange(1, len(hits) + 1)
-    recall = ctp / num_gt
-    mrec = np.concatenate([[0.0], recall, [1.0]])
-    mpre = np.concatenate([[0.0], precision, [0.0]])
-    mpre = np.maximum.accumulate(mpre[::-1])[::-1]  # envelope: max precision at any recall >= r
-    steps = np.nonzero(mrec[1:] != mrec[:-1])[0] + 1
-    return float(np.sum((mrec[steps] - mrec[steps - 1]) * mpre[steps]))
-
-
-def _metric_name_iou(thr: float) -> str:
-    return f"3D{round(thr * 100):d}"
 
 
 def _metric_name_pose(deg: float, cm: float) -> str:
     return f"{round(deg, 6):g}deg{round(cm, 6):g}cm"
-
-
-def _check_object(obj, where: str, is_pred: bool) -> dict:
-    if not isinstance(obj, Mapping):
-        raise InputError(f"{where} must be a dict, got {type(obj).__name__}")
-    keys = ("class", "cam_from_object", "size_m") + (("score",) if is_pred else ())
-    for key in keys:
-        if key not in obj:
-            raise InputError(f"{where} is missing the key {key!r} (needs {keys})")
-    if not isinstance(obj["class"], str):
-        raise InputError(f"{where}['class'] must be a class name (str), got {obj['class']!r}")
-    out = {
-        "class": obj["class"],
-        "T": _transform(obj["cam_from_object"], f"{where}['cam_from_object']"),
-        "size": _size(obj["size_m"], f"{where}['size_m']"),
-    }
-    if is_pred:
-        out["score"] = _scalar(obj["score"], f"{where}['score']")
-    else:
-        hv = obj.get("handle_visible", True)
-        if not isinstance(hv, (bool, np.bool_)):
-            raise InputError(f"{where}['handle_visible'] must be a bool, got {hv!r}")
-        out["handle_visible"] = bool(hv)
-    return out
-
-
-def compute_map(
-    records: Sequence[Mapping],
-    classes: Sequence[str] | None = None,
-    iou_thresholds: Sequence[float] = (0.5, 0.75),
-    pose_thresholds_deg_cm: Sequence[tuple[float, float]] = ((5, 2), (5, 5), (10, 2), (10, 5)),
-    symmetric_classes: Sequence[str] = NOCS_SYMMETRIC_CLASSES,
-    num_angles: int = 36,
-    pose_iou_gate: float | None = None,
-) -> dict:
-    """NOCS-style mean average precision for rigid categories, with the exact oriented-box IoU.
-
-    Record format: one dict per image (or per evaluated view)::
-
-        {"gt":   [{"class": "mug", "cam_from_object": (4, 4), "size_m": (3,), "handle_visible": True}, ...],
-         "pred": [{"class": "mug", "cam_from_object": (4, 4), "size_m": (3,), "score": 0.93}, ...]}
-
-    ``cam_from_object`` maps the object frame (NOCS-like: y up; the amodal box centred on its origin and
-    aligned with its axes) to the camera frame, metres; ``size_m`` is the box's full extents along the
-    object's x, y, z in metres; ``score`` any finite confidence (higher is better).  ``handle_visible``
-    (optional, default ``True``, only read for the class ``"mug"``) is NOCS's mug special case: a mug
-    whose handle is not visible is evaluated as symmetric about y.  Either list may be empty.
-
-    Rules (docs/metrics.md; anchors section 3):
-
-    * Symmetry: classes in ``symmetric_classes`` (bottle, bowl, can) and mugs with an invisible handle
-      are symmetric about y: rotation error = angle between the y axes, IoU = best over rotations of
-      the predicted box about its y axis.  Otherwise the geodesic rotation angle and the plain IoU.
-      Translation error = centre distance in cm.
-    * Matching, per class and per threshold, greedy: all predictions of the class over all images are
-      sorted by descending score (stable: ties keep record order, then list order); each in turn is
-      matched to a still-unmatched ground-truth object of the same class in the same image that
-      passes the threshold (IoU >= t for ``3D{t}``; rotation error <= d degrees and translation error
-      <= c cm for ``{d}deg{c}cm``), choosing the highest IoU, respectively the smallest
-      (degrees + cm), among those (the lowest index on ties).  A matched prediction is a true
-      positive, any other a false positive; each ground-truth object is matched at most once.
-    * AP: VOC all-point interpolation (:func:`average_precision`).  A class with ground truth but no
-      predictions has AP 0; a class without ground truth has AP ``None`` and is left out of the mean.
-      The mean is over the classes that have ground truth.
-    * Pose gating (off by default, as in the anchors' rules): with ``pose_iou_gate=0.1`` the pose
-      metrics follow the NOCS reference code's ``use_matches_for_pose=True, iou_pose_thres=0.1``: the
-      IoU matching is run at the gate first, and the pose APs are computed over the matched
-      predictions and matched GT objects only (the unmatched ones are dropped, not counted as false
-      positives or misses).  Use it only to compare with tables produced by that code.
-
-    Args:
-        records: the per-image records described above.
-        classes: the classes to evaluate (default: every class seen in the records, sorted).
-            Predictions of other classes are ignored.
-        iou_thresholds: IoU thresholds in ``(0, 1]``; metric names ``3D50``, ``3D75``.
-        pose_thresholds_deg_cm: ``(degrees, centimetres)`` pairs; names ``5deg2cm`` etc.
-        symmetric_classes: classes symmetric about their y axis.
-        num_angles: sweep resolution of the symmetric IoU (see :func:`box_iou`).
-        pose_iou_gate: ``None`` (default) or an IoU in ``(0, 1]``; see "Pose gating" above.
-
-    Returns:
-        A JSON-friendly dict::
-
-            {"iou_method": IOU_METHOD,             # the IoU is exact, not NOCS's axis-aligned one
-             "metrics": ["3D50", "3D75", "5deg2cm", "5deg5cm", "10deg2cm", "10deg5cm"],
-             "mean": {metric: AP or None},         # over classes with ground truth, in [0, 1]
-             "per_class": {class: {metric: AP or None}},
-             "num_gt": {class: int}, "num_pred": {class: int},
-             "classes_with_gt": [...], "symmetric_classes": [...],
-             "matching": str, "pose_iou_gate": float or None, "interpolation": str}
-
-        APs are fractions in ``[0, 1]`` (NOCS tables print percent).
-
-    Raises:
-        InputError: on a malformed record (the message gives its index and key) or bad thresholds.
-    """
-    if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Sequence):
-        raise InputError(f"records must be a list of per-image dicts, got {type(records).__name__}")
-    images = []
-    for i, rec in enumerate(records):
-        if not isinstance(rec, Mapping) or "gt" not in rec or "pred" not in rec:
-            raise InputError(f"records[{i}] must be a dict with the keys 'gt' and 'pred'")
-        gts, preds = rec["gt"], rec["pred"]
-        for key, lst in (("gt", gts), ("pred", preds)):
-            if isinstance(lst, (str, bytes, Mapping)) or not isinstance(lst, Sequence):
-                raise InputError(f"records[{i}]['{key}'] must be a list of dicts")
-        images.append((
-            [_check_object(o, f"records[{i}]['gt'][{j}]", False) for j, o in enumerate(gts)],
-            [_check_object(o, f"records[{i}]['pred'][{j}]", True) for j, o in enumerate(preds)],
-        ))
-    iou_thr = [_scalar(t, "iou_thresholds") for t in iou_thresholds]
-    if any(not 0.0 < t <= 1.0 for t in iou_thr):
-        raise InputError(f"iou_thresholds must lie in (0, 1], got {iou_thr}")
-    pose_thr = []
-    for pair in pose_thresholds_deg_cm:
-        if np.shape(pair) != (2,):
-            raise InputError(f"pose_thresholds_deg_cm must hold (degrees, cm) pairs, got {pair!r}")
-        deg, cm = _scalar(pair[0], "pose threshold (deg)"), _scalar(pair[1], "pose threshold (cm)")
-        if deg < 0 or cm < 0:
-            raise InputError(f"pose thresholds must be non-negative, got {pair!r}")
-        pose_thr.append((deg, cm))
-    gate = None
-    if pose_iou_gate is not None:
-        gate = _scalar(pose_iou_gate, "pose_iou_gate")
-        if not 0.0 < gate <= 1.0:
-            raise InputError(f"pose_iou_gate must be None or lie in (0, 1], got {gate}")
-    if isinstance(symmetric_classes, str):
-        raise InputError("symmetric_classes must be a list of class names, not a single string")
-    sym_classes = set(symmetric_classes)
-    if classes is None:
-        classes = sorted({o["class"] for gts, preds in images for o in gts + preds})
-    elif isinstance(classes, str):
-        raise InputError("classes must be a list of class names, not a single string")
-    classes = list(classes)
-    metrics = [_metric_name_iou(t) for t in iou_thr] + [_metric_name_pose(d, c) for d, c in pose_thr]
-    if len(set(metrics)) != len(metrics):
-        raise InputError(f"duplicate thresholds give duplicate metric names: {metrics}")
-
-    per_class, num_gt, num_pred = {}, {}, {}
-    for cls in classes:
-        # Per image: the class's GT and predictions, and the pairwise IoU / rotation / translation errors.
-        dets = []  # (score, image index, prediction index within the image's class list)
-        pair_err = []  # per image: (iou, rot_deg, trans_cm) arrays of shape (P_i, G_i)
-        n_gt = 0
-        for im, (gts, preds) in enumerate(images):
-            g = [o for o in gts if o["class"] == cls]
-            p = [o for o in preds if o["class"] == cls]
-            n_gt += len(g)
-            iou = np.zeros((len(p), len(g)))
-            rot = np.zeros((len(p), len(g)))
-            trans = np.zeros((len(p), len(g)))
-            for a, po in enumerate(p):
-                dets.append((po["score"], im, a))
-                for b, go in enumerate(g):
-                    sym = "y" if (cls in sym_classes or (cls == "mug" and not go["handle_visible"])) else "none"
-                    iou[a, b] = box_iou(po["T"], po["size"], go["T"], go["size"], sym, num_angles)
-                    rot[a, b] = rotation_error_deg(po["T"][:3, :3], go["T"][:3, :3], sym)
-                    trans[a, b] = 100.0 * np.linalg.norm(po["T"][:3, 3] - go["T"][:3, 3])
-            pair_err.append((iou, rot, trans))
-        num_gt[cls], num_pred[cls] = n_gt, len(dets)
-        order = sorted(range(len(dets)), key=lambda d: -dets[d][0])  # stable
-        scores = np.array([dets[d][0] for d in order])
-
-        def greedy(passes, cost, ranks, allowed):
-            """Greedy matching of the detections ``ranks`` (indices into ``order``) to the GT objects
-            ``allowed`` (per image, a bool mask); ``passes`` / ``cost`` map (iou, rot, trans) rows.
-            Returns the TP flags (one per rank) and the matched GT mask per image."""
-            matched = [np.zeros(len(m), dtype=bool) for m in allowed]
-            tp = np.zeros(len(ranks), dtype=np.int64)
-            for n, rank in enumerate(ranks):
-                _, im, a = dets[order[rank]]
-                iou, rot, trans = (e[a] for e in pair_err[im])
-                ok = passes(iou, rot, trans) & allowed[im] & ~matched[im]
-                if np.any(ok):
-                    matched[im][int(np.argmin(np.where(ok, cost(iou, rot, trans), np.inf)))] = True
-                    tp[n] = 1
-            return tp, matched
-
-        def by_iou(t):
-            return (lambda iou, rot, tr: iou >= t), (lambda iou, rot, tr: -iou)
-
-        def by_pose(deg, cm):
-            return (lambda iou, rot, tr: (rot <= deg) & (tr <= cm)), (lambda iou, rot, tr: rot + tr)
-
-        all_ranks = list(range(len(order)))
-        all_gt = [np.ones(err[0].shape[1], dtype=bool) for err in pair_err]
-        results = {}
-        for t, name in zip(iou_thr, metrics[: len(iou_thr)]):
-            tp, _ = greedy(*by_iou(t), all_ranks, all_gt)
-            results[name] = average_precision(tp, scores, n_gt) if n_gt else None
-        pose_ranks, pose_gt, pose_n_gt = all_ranks, all_gt, n_gt
-        if pose_iou_gate is not None:  # NOCS reference: keep only the pairs matched at IoU >= gate
-            gate_tp, pose_gt = greedy(*by_iou(gate), all_ranks, all_gt)
-            pose_ranks = [r for r in all_ranks if gate_tp[r]]
-            pose_n_gt = int(sum(m.sum() for m in pose_gt))
-        for (deg, cm), name in zip(pose_thr, metrics[len(iou_thr):]):
-            tp, _ = greedy(*by_pose(deg, cm), pose_ranks, pose_gt)
-            if not n_gt:
-                results[name] = None
-            else:
-                results[name] = average_precision(tp, scores[pose_ranks], pose_n_gt) if pose_n_gt else 0.0
-        per_class[cls] = results
-
-    with_gt = [c for c in classes if num_gt[c] > 0]
-    mean = {m: (float(np.mean([per_class[c][m] for c in with_gt])) if with_gt else None) for m in metrics}
-    return {
-        "iou_method": IOU_METHOD,
-        "metrics": metrics,
-        "mean": mean,
-        "per_class": per_class,
-        "num_gt": num_gt,
-        "num_pred": num_pred,
-        "classes_with_gt": with_gt,
-        "symmetric_classes": sorted(sym_classes),
-        "matching": "greedy per class in descending score order; best unmatched GT passing the threshold "
-                    "(highest IoU, or smallest deg + cm); "
-                    + ("no IoU gating of pose metrics" if pose_iou_gate is None else
-                       f"pose metrics only over the predictions and GT matched at IoU >= {gate:g} (NOCS reference)"),
-        "pose_iou_gate": None if pose_iou_gate is None else gate,
-        "interpolation": "VOC all-point",
-    }
 
 
 # --------------------------------------------------------------------------------------------------
