@@ -70,11 +70,13 @@ def lathe(profile_ry: np.ndarray, sections: int = 48, closed: bool = True) -> tr
 def rounded_rect(width: float, height: float, radius: float, n_corner: int = 6) -> np.ndarray:
     """Counter-clockwise convex ``(4 * n_corner, 2)`` rounded rectangle centred on the origin."""
     r = float(np.clip(radius, 1e-5, 0.5 * min(width, height) - 1e-6))
-    hx, hy = width / 2 - r, height / 2 - r
-    centres = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-    t = (np.arange(4)[:, None] + np.linspace(0.0, 1.0, n_corner)[None, :]) * (np.pi / 2)  # (4, n)
-    pts = centres[:, None, :] + r * np.stack([np.cos(t), np.sin(t)], -1)
-    return pts.reshape(-1, 2)
+    cx = np.array([width / 2 - r, -width / 2 + r, -width / 2 + r, width / 2 - r])
+    cy = np.array([height / 2 - r, height / 2 - r, -height / 2 + r, -height / 2 + r])
+    start = np.array([0.0, 0.5, 1.0, 1.5]) * np.pi
+    t = start[:, None] + np.linspace(0.0, 0.5 * np.pi, n_corner)[None, :]
+    x = cx[:, None] + r * np.cos(t)
+    y = cy[:, None] + r * np.sin(t)
+    return np.stack([x.ravel() + 0.0, y.ravel() + 0.0], -1)
 
 
 # (x, y, z) coordinates of the prism frame -> object frame, per extrusion axis (proper rotations)
@@ -107,17 +109,30 @@ def rounded_slab(
     return trimesh.Trimesh(vertices=v, faces=np.asarray(m.faces), process=False)
 
 
-_UNIT_BOX = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
-_UNIT_V = np.asarray(_UNIT_BOX.vertices, float)
-_UNIT_F = np.asarray(_UNIT_BOX.faces, np.int64)
+# unit box corners and its 12 outward triangles (same layout for every box)
+_BOX_CORNERS = np.array(
+    [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float
+) * 0.5
+_BOX_FACES = np.array(
+    [
+        [0, 2, 1], [0, 3, 2],  # -z
+        [4, 5, 6], [4, 6, 7],  # +z
+        [0, 1, 5], [0, 5, 4],  # -y
+        [3, 7, 6], [3, 6, 2],  # +y
+        [0, 4, 7], [0, 7, 3],  # -x
+        [1, 2, 6], [1, 6, 5],  # +x
+    ],
+    np.int64,
+)
 
 
 def boxes(centers: np.ndarray, extents: np.ndarray) -> trimesh.Trimesh:
     """Many axis-aligned boxes at once: ``centers`` ``(M, 3)``, ``extents`` ``(M, 3)`` or ``(3,)``."""
-    c = np.asarray(centers, float).reshape(-1, 3)
-    e = np.broadcast_to(np.asarray(extents, float), c.shape)
-    v = (c[:, None, :] + e[:, None, :] * _UNIT_V[None]).reshape(-1, 3)
-    f = (_UNIT_F[None] + (np.arange(len(c)) * len(_UNIT_V))[:, None, None]).reshape(-1, 3)
+    c = np.atleast_2d(np.asarray(centers, float))
+    e = np.broadcast_to(np.atleast_2d(np.asarray(extents, float)), c.shape)
+    n = len(c)
+    v = (c[:, None, :] + _BOX_CORNERS[None] * e[:, None, :]).reshape(-1, 3)
+    f = (_BOX_FACES[None] + 8 * np.arange(n)[:, None, None]).reshape(-1, 3)
     return trimesh.Trimesh(vertices=v, faces=f, process=False)
 
 
