@@ -187,7 +187,7 @@ def test_no_gross_interpenetration(name):
 
 def test_laptop_opens_upwards():
     for obj in _instances("laptop")[0][:10]:
-        W, D, T = obj.params["width"], obj.params["depth"], obj.params["base_thickness"]
+        D = obj.params["depth"]
         base_top = obj.size_m[0, 1] / 2  # the base box is centred on the object origin
         c_rest = _centres(obj, [1.57])[1]
         assert c_rest[1] > base_top + 0.35 * D  # standing up

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from ucope.errors import InputError
-from ucope.geometry.transforms import apply_transform, axis_angle_transform
+from ucope.geometry.transforms import axis_angle_transform
 from ucope.objects.articulation import ArticulatedObject, Joint, Part, build_object, make_part
 from ucope.objects.shapes import box
 from tests_support import make_toy_object  # noqa: E402

@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
+from ..shapes import arc, offset_curve, revolve_profile
 from . import CategorySpec
-from ._rigid_common import arc, finish, lathe, offset_curve, uniform
+from .helpers import rigid_object, uniform
 
 SECTIONS = 48
 
@@ -71,7 +72,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     # round the mouth: a half circle over the wall from the outer to the inner side
     mouth = arc((Rn - t / 2, top), t / 2, 0.0, np.pi, 7)[1:-1]
     loop = np.concatenate([outer, mouth, inner[::-1]])
-    meshes = [lathe(loop, SECTIONS, closed=True)]
+    meshes = [revolve_profile(loop, SECTIONS, closed=True)]
 
     # lip bead ring at the mouth
     lip_top = top - (0.0 if not has_cap else 0.004)
@@ -82,7 +83,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         [[Rn - 0.3 * t, lip_top], [Rn - 0.3 * t, lip_top - lip_h]],
         arc((Rn + lip_w - lip_w / 2, lip_top - lip_h + lip_w / 2), lip_w / 2, -np.pi / 2, 0.0, 4),
     ])
-    meshes.append(lathe(bead, SECTIONS, closed=True))
+    meshes.append(revolve_profile(bead, SECTIONS, closed=True))
 
     if has_cap:
         Rc = Rn + cap_extra
@@ -94,10 +95,10 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
             arc((Rc - f, H - f), f, 0.0, np.pi / 2, 4),
             [[0.0, H]],
         ])
-        meshes.append(lathe(cap, SECTIONS, closed=False))
+        meshes.append(revolve_profile(cap, SECTIONS, closed=False))
         # tamper-evident ring just below the cap
         ring = np.array([[Rn, y0 - 0.004], [Rc - 0.0004, y0 - 0.004], [Rc - 0.0004, y0 - 0.0005], [Rn, y0 - 0.0005]])
-        meshes.append(lathe(ring, SECTIONS, closed=True))
+        meshes.append(revolve_profile(ring, SECTIONS, closed=True))
 
     params = dict(
         height=H, body_radius=Rb, neck_radius=Rn, wall=t, shoulder_frac=shoulder_frac, neck_frac=neck_frac,
@@ -105,7 +106,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         heel_radius=heel, punt=punt, lip_width=lip_w, lip_height=lip_h, has_cap=has_cap, cap_height=cap_h,
         cap_extra=cap_extra,
     )
-    return finish("bottle", instance_id, meshes, "y", params)
+    return rigid_object("bottle", instance_id, meshes, "y", params)
 
 
 SPEC = CategorySpec(

@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
+from ..shapes import offset_curve, revolve_profile
 from . import CategorySpec
-from ._rigid_common import finish, lathe, offset_curve, uniform
+from .helpers import rigid_object, uniform
 
 SECTIONS = 64
 
@@ -69,13 +70,13 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     foot = np.array([[r0, y_at(r0)], [r0 + ch, 0.0], [r1 - ch, 0.0], [r1, y_at(r1)]])
     outer = np.concatenate([curve[r_c < r0 - 1e-6], foot, curve[r_c > r1 + 1e-6]])
     loop = np.concatenate([outer, rim, inner[::-1]])
-    mesh = lathe(loop, SECTIONS, closed=True)
+    mesh = revolve_profile(loop, SECTIONS, closed=True)
 
     params = dict(
         radius=R, height=H, wall=t, foot_height=foot_h, foot_radius=Rf, foot_width=foot_w,
         bottom_flatness=flat, wall_bulge=wall_c, flare=flare,
     )
-    return finish("bowl", instance_id, [mesh], "y", params)
+    return rigid_object("bowl", instance_id, [mesh], "y", params)
 
 
 SPEC = CategorySpec(

@@ -20,9 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
-from ..shapes import box, cylinder, prism
+from ..shapes import arc, box, boxes, cylinder, extrude, revolve_profile, rounded_slab, transformed
 from . import CategorySpec
-from ._rigid_common import arc, boxes, finish, lathe, rounded_slab, transformed, uniform
+from .helpers import rigid_object, uniform
 
 _Y_TO_Z = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # rotation about x by +90 deg: y -> z
 
@@ -79,7 +79,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     gsize = (grip_w, gh, D + grip_d)
     meshes.append(rounded_slab(gsize, 0.45 * min(grip_w, D + grip_d), axis="y", center=(-W / 2 + grip_w / 2, -Hb / 2 + gh / 2, grip_d / 2), n_corner=8))
 
-    lens = lathe(_lens_profile(rl, L, mount_len, front_len, n_ribs), 48, closed=False)
+    lens = revolve_profile(_lens_profile(rl, L, mount_len, front_len, n_ribs), 48, closed=False)
     meshes.append(transformed(lens, _Y_TO_Z, (x_l, y_l, D / 2)))
 
     top = Hb / 2
@@ -98,7 +98,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         hd = 0.75 * D
         tw = 0.45 * hump_w
         poly = np.array([[-hump_w / 2, 0.0], [hump_w / 2, 0.0], [tw / 2, hump_h], [-tw / 2, hump_h]])
-        meshes.append(transformed(prism(poly, hd), None, (x_l, top - 0.001, -D / 2 + hd / 2)))
+        meshes.append(transformed(extrude(poly, hd, plane="xy"), None, (x_l, top - 0.001, -D / 2 + hd / 2)))
         meshes.append(box((0.6 * tw, 0.003, 0.6 * hd), (x_l, top - 0.001 + hump_h + 0.0015, -D / 2 + hd / 2)))
         meshes.append(rounded_slab((0.022, 0.016, 0.012), 0.004, axis="z", center=(x_l, top + 0.4 * hump_h, -D / 2 - 0.004)))
     else:  # compact: flash window and viewfinder window on the front face, top plate strip
@@ -116,7 +116,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         front_ring_length=front_len, n_ribs=n_ribs, hump_height=hump_h, hump_width=hump_w,
         button_radius=button_r, dial_radius=dial_r, has_dial=has_dial, screen_frac=screen_frac,
     )
-    return finish("camera", instance_id, meshes, "none", params)
+    return rigid_object("camera", instance_id, meshes, "none", params)
 
 
 SPEC = CategorySpec(

@@ -18,8 +18,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
+from ..shapes import arc, revolve_profile
 from . import CategorySpec
-from ._rigid_common import arc, finish, lathe, uniform
+from .helpers import rigid_object, uniform
 
 SECTIONS = 48
 
@@ -78,8 +79,8 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     style = int(rng.random() < 0.35)
     params: dict = dict(radius=R, height=H, style=style)
     prof = _food_tin(R, H, rng, params) if style else _drink_can(R, H, rng, params)
-    mesh = lathe(prof, SECTIONS, closed=False)
-    return finish("can", instance_id, [mesh], "y", params)
+    mesh = revolve_profile(prof, SECTIONS, closed=False)
+    return rigid_object("can", instance_id, [mesh], "y", params)
 
 
 SPEC = CategorySpec(

@@ -21,9 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject, build_object, make_part
-from ..shapes import combine, open_box
+from ..shapes import boxes, combine, disc, extrude, open_box, rounded_rect, sweep_planar
 from . import CategorySpec
-from ._articulated_common import boxes, disc, extrude, rounded_rect, sweep_planar
 
 __all__ = ["SPEC", "build"]
 

@@ -22,9 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject, build_object, make_part
-from ..shapes import combine
+from ..shapes import combine, curve_x_at, disc, extrude, rod, superellipse, sweep_planar
 from . import CategorySpec
-from ._articulated_common import curve_x_at, disc, extrude, rod, superellipse, sweep_planar
 
 __all__ = ["SPEC", "build"]
 

@@ -19,9 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject, build_object, make_part
-from ..shapes import combine
+from ..shapes import boxes, clip_convex, combine, disc, extrude, rounded_rect
 from . import CategorySpec
-from ._articulated_common import boxes, clip_convex, disc, extrude, rounded_rect
 
 __all__ = ["SPEC", "build"]
 
@@ -52,7 +51,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     bezel_top = bezel + rng.uniform(0.0, 0.008)
 
     parts_base = []
-    y_body_lo, y_top = foot_h, T
+    y_body_lo = foot_h
     outline = rounded_rect(W, D, corner, 5)
     # body below the key-well floor, and the deck (a frame around the key well) up to the top
     parts_base.append(extrude(outline, T - foot_h - well, plane="xz", offset=0.5 * (y_body_lo + T - well)))

@@ -17,9 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
-from ..shapes import cylinder
+from ..shapes import boxes, cylinder, rounded_slab, transformed
 from . import CategorySpec
-from ._rigid_common import boxes, finish, rounded_slab, transformed, uniform
+from .helpers import rigid_object, uniform
 
 
 def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
@@ -100,7 +100,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         n_rows=n_rows, key_height=key_h, key_fill=key_fill, touchpad_width=tp_w, touchpad_depth=tp_dd,
         bezel_side=bez_side, bezel_top=bez_top, bezel_chin=bez_chin,
     )
-    return finish("laptop_rigid", instance_id, meshes, "none", params)
+    return rigid_object("laptop_rigid", instance_id, meshes, "none", params)
 
 
 SPEC = CategorySpec(

@@ -21,9 +21,9 @@ import numpy as np
 import trimesh
 
 from ..articulation import ArticulatedObject
-from ..shapes import tube_along_path
+from ..shapes import arc, offset_curve, revolve_profile, tube_along_path
 from . import CategorySpec
-from ._rigid_common import arc, finish, lathe, offset_curve, uniform
+from .helpers import rigid_object, uniform
 
 SECTIONS = 48
 
@@ -72,7 +72,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     inner = np.concatenate([inner_wall[::-1], inner_fillet, [[0.0, t_bottom]]])
     loop = np.concatenate([outer, rim, inner])
     loop[:, 1] *= H / loop[:, 1].max()  # a leaning rim tops out a hair below H: stretch to exactly H
-    cup = lathe(loop, SECTIONS, closed=True)
+    cup = revolve_profile(loop, SECTIONS, closed=True)
 
     # handle: a C curve in the x-y plane from the upper to the lower attachment, ends inside the wall
     yt, yb = h_top * H, h_bot * H
@@ -96,7 +96,7 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         handle_reach=reach, handle_top=h_top, handle_bottom=h_bot, handle_squareness=squareness,
         handle_ear=ear, handle_half_width=hw, handle_half_thickness=ht,
     )
-    return finish("mug", instance_id, [cup, handle], "none", params)
+    return rigid_object("mug", instance_id, [cup, handle], "none", params)
 
 
 SPEC = CategorySpec(

@@ -21,9 +21,8 @@ import numpy as np
 import trimesh
 
 from ..articulation import ArticulatedObject, build_object, make_part
-from ..shapes import combine
+from ..shapes import combine, disc, extrude, sweep_planar
 from . import CategorySpec
-from ._articulated_common import disc, extrude, sweep_planar
 
 __all__ = ["SPEC", "build"]
 
