@@ -32,6 +32,8 @@ PRIMITIVES = {
     "rounded_slab_y": lambda: shapes.rounded_slab((0.3, 0.02, 0.2), 0.01, axis="y"),
     "revolve_closed": lambda: shapes.revolve_profile(np.array([[0.05, 0.0], [0.06, 0.0], [0.06, 0.1], [0.05, 0.1]]), 32),
     "revolve_open": lambda: shapes.revolve_profile(np.array([[0.0, 0.0], [0.05, 0.0], [0.05, 0.1], [0.0, 0.1]]), 32, closed=False),
+    "rod": lambda: shapes.rod((0, 0, 0), (0.1, 0.2, 0.0), 0.01),
+    "sweep_open": lambda: shapes.sweep_planar(np.c_[np.linspace(0, 0.1, 9), np.zeros(9), np.zeros(9)], (0, 1, 0), 0.004, 0.002),
     "sweep_ring": lambda: shapes.sweep_planar(np.c_[shapes.superellipse(0.05, 0.03, 2.0, 40), np.zeros(40)], (0, 0, 1), 0.002, 0.003, closed=True),
 }
 
@@ -78,5 +80,9 @@ def test_outlines():
     line = np.array([[0.0, 0.0], [0.0, 1.0]])
     np.testing.assert_allclose(shapes.offset_curve(line, 0.1), [[-0.1, 0.0], [-0.1, 1.0]])  # to the left
     np.testing.assert_allclose(shapes.curve_x_at(se, 0.0, 0.0, +1), 0.03)
+    hull = shapes.convex_outline(np.concatenate([se, se * 0.5 + [0.0, -0.03]]), 40)
+    assert hull.shape == (40, 2) and hull[:, 1].min() == pytest.approx(-0.04, abs=1e-3)
+    d = np.diff(np.concatenate([hull, hull[:1]]), axis=0)
+    assert np.all(d[:, 0] * np.roll(d[:, 1], -1) - d[:, 1] * np.roll(d[:, 0], -1) >= -1e-12)  # convex, counter-clockwise
     a = shapes.arc((0.0, 0.0), 1.0, 0.0, np.pi / 2, 3)
     np.testing.assert_allclose(a, [[1, 0], [np.sqrt(0.5), np.sqrt(0.5)], [0, 1]], atol=1e-12)

@@ -47,6 +47,7 @@ __all__ = [
     "offset_curve",
     "clip_convex",
     "curve_x_at",
+    "convex_outline",
 ]
 
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -142,7 +143,7 @@ def open_box(
     """
     ex = np.asarray(outer, float)
     c = np.asarray(center, float)
-    parts = []
+    centres, sizes = [], []
     for axis in range(3):
         for sign in (-1.0, 1.0):
             name = ("+" if sign > 0 else "-") + "xyz"[axis]
@@ -152,10 +153,12 @@ def open_box(
             size[axis] = wall
             off = np.zeros(3)
             off[axis] = sign * (ex[axis] - wall) / 2
-            parts.append(box(size, c + off))
+            centres.append(c + off)
+            sizes.append(size)
     for y in shelves_y:
-        parts.append(box([ex[0] - 2 * wall, wall, ex[2] - 2 * wall], c + [0.0, y, 0.0]))
-    return combine(parts)
+        centres.append(c + [0.0, y, 0.0])
+        sizes.append([ex[0] - 2 * wall, wall, ex[2] - 2 * wall])
+    return boxes(np.array(centres), np.array(sizes))
 
 
 def cylinder(radius: float, height: float, center: Sequence[float] = (0, 0, 0), axis: Sequence[float] = (0, 1, 0), sections: int = 24) -> trimesh.Trimesh:
@@ -343,8 +346,8 @@ def sweep_planar(
         k = np.arange(sections)
         k1 = (k + 1) % sections
         last = (n - 1) * sections
-        faces.append(np.stack([np.full(sections, base), k, k1], -1))
-        faces.append(np.stack([np.full(sections, base + 1), last + k1, last + k], -1))
+        faces.append(np.stack([np.full(sections, base), k1, k], -1))
+        faces.append(np.stack([np.full(sections, base + 1), last + k, last + k1], -1))
     return _mesh(v, np.concatenate(faces))
 
 
@@ -466,6 +469,20 @@ def clip_convex(poly: np.ndarray, coord: int, value: float, keep: str = "below")
     out = np.stack([poly, ipts], 1).reshape(-1, 2)
     mask = np.stack([inside, cross], 1).reshape(-1)
     return out[mask]
+
+
+def convex_outline(points: np.ndarray, n: int = 48) -> np.ndarray:
+    """The convex hull of ``(M, 2)`` points as ``n`` counter-clockwise points spaced evenly along its
+    perimeter (for shapes made of several convex pieces: a teardrop from two ellipses)."""
+    from scipy.spatial import ConvexHull  # noqa: PLC0415 - scipy is a hard dependency, imported on use
+
+    p = np.asarray(points, float)
+    hull = p[ConvexHull(p).vertices]  # counter-clockwise in 2D
+    closed = np.concatenate([hull, hull[:1]])
+    seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    t = np.linspace(0.0, s[-1], n, endpoint=False)
+    return np.stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])], -1)
 
 
 def curve_x_at(curve: np.ndarray, y: float, centre_x: float, side: int) -> float:
