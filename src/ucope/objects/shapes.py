@@ -39,7 +39,6 @@ __all__ = [
     "rounded_slab",
     "revolve_profile",
     "sweep_planar",
-    "tube_along_path",
     # 2D outlines
     "arc",
     "rounded_rect",
@@ -349,57 +348,6 @@ def sweep_planar(
         faces.append(np.stack([np.full(sections, base), k1, k], -1))
         faces.append(np.stack([np.full(sections, base + 1), last + k, last + k1], -1))
     return _mesh(v, np.concatenate(faces))
-
-
-def _path_frames(path: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Unit normal / binormal at each path point by parallel transport of an initial frame."""
-    if closed:
-        tang = np.roll(path, -1, 0) - np.roll(path, 1, 0)
-    else:
-        tang = np.gradient(path, axis=0)
-    tang /= np.linalg.norm(tang, axis=1, keepdims=True)
-    ref = np.array([0.0, 1.0, 0.0]) if abs(tang[0, 1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    normals = np.empty_like(path)
-    nrm = np.cross(tang[0], ref)
-    nrm /= np.linalg.norm(nrm)
-    # parallel transport is sequential by nature; paths have a few dozen points, not a hot loop
-    for k in range(len(path)):
-        nrm = nrm - (nrm @ tang[k]) * tang[k]
-        nrm /= np.linalg.norm(nrm)
-        normals[k] = nrm
-    binormals = np.cross(tang, normals)
-    return normals, binormals
-
-
-def tube_along_path(path: np.ndarray, radius: float | Sequence[float], sections: int = 8, closed: bool = False) -> trimesh.Trimesh:
-    """A tube swept along any ``(N, 3)`` polyline (metres), framed by parallel transport.
-
-    ``radius`` is a scalar or ``(2,)`` half-widths along the path normal and binormal; ``closed`` joins the
-    last point to the first (a ring). The triangles face inwards: reverse them (``faces[:, ::-1]``) for an
-    outward tube. For a planar path, :func:`sweep_planar` is cheaper and outward already.
-    """
-    path = np.asarray(path, float)
-    rad = np.broadcast_to(np.asarray(radius, float), (2,))
-    normals, binormals = _path_frames(path, closed)
-    phi = np.linspace(0, 2 * np.pi, sections, endpoint=False)
-    ring = rad[0] * np.cos(phi)[None, :, None] * normals[:, None, :] + rad[1] * np.sin(phi)[None, :, None] * binormals[:, None, :]
-    verts = (path[:, None, :] + ring).reshape(-1, 3)
-    n = len(path)
-    i = np.arange(n if closed else n - 1)[:, None]
-    j = np.arange(sections)[None, :]
-    i1, j1 = (i + 1) % n, (j + 1) % sections
-    a, b, c, d = i * sections + j, i1 * sections + j, i1 * sections + j1, i * sections + j1
-    faces = [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
-    if not closed:  # cap the ends with fans around added centre vertices
-        centres = np.stack([path[0], path[-1]])
-        base = len(verts)
-        verts = np.concatenate([verts, centres])
-        k = np.arange(sections)
-        k1 = (k + 1) % sections
-        faces.append(np.stack([np.full(sections, base), k1, k], -1))
-        last = (n - 1) * sections
-        faces.append(np.stack([np.full(sections, base + 1), last + k, last + k1], -1))
-    return _mesh(verts, np.concatenate(faces))
 
 
 # ------------------------------------------------------------------------------------------------
