@@ -156,15 +156,17 @@ def level_specs(kinds) -> list[tuple[str, str, object]]:
     return [(k, spec_of(k, lv), lv) for k in kinds for lv in KINDS[k].levels if lv != KINDS[k].identity]
 
 
-def run_model(name: str, kinds, num: int, seed: int, pairs: int, log) -> dict:
+def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir: Path | None = None) -> dict:
     import ucope
 
     category = name
     spec = get_category(category)
     K = spec.num_parts
-    est = ucope.Estimator.load(name, num_pairs=pairs)
+    est = ucope.Estimator.load(str(model_dir / f"{name}.json") if model_dir is not None else name, num_pairs=pairs)
     view_cfg = ViewConfig(noise=DepthNoise(enabled=False))
-    gen = GenerateConfig(category, split="test", num=num, seed=seed, views_per_instance=1, view=view_cfg)
+    # the benchmark adds its own adjacent distractor and background pool: the generator's are off
+    gen = GenerateConfig(category, split="test", num=num, seed=seed, views_per_instance=1, view=view_cfg, background=False,
+                         adjacent_distractor=0.0)
     t_start = time.perf_counter()
     todo = [("clean", "clean", None)] + level_specs(kinds)
     records = {s: [] for _, s, _ in todo}
@@ -425,6 +427,8 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=0, help="seed of the test views and of the corruptions")
     ap.add_argument("--pairs", type=int, default=20000, help="point pairs per prediction (default 20000)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
+    ap.add_argument("--model-dir", type=Path, default=None,
+                    help="load <name>.json from this folder instead of the shipped models (to compare model sets)")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results_robustness.json")
     ap.add_argument("--page", type=Path, default=ROOT / "docs" / "robustness.md")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "images" / "robustness.png")
@@ -457,7 +461,7 @@ def main(argv=None) -> None:
     t0 = time.perf_counter()
     for m in args.models:
         log(f"{m}: {args.num} views, kinds {', '.join(args.kinds)}")
-        new = run_model(m, args.kinds, args.num, args.seed, args.pairs, log)
+        new = run_model(m, args.kinds, args.num, args.seed, args.pairs, log, args.model_dir)
         if m in res["models"]:  # merge: keep the levels this run did not redo
             new["levels"] = {**res["models"][m]["levels"], **new["levels"]}
         res["models"][m] = new

@@ -28,8 +28,11 @@ CONVENTIONS_VERSION = "1"
 """Version of the frames / units / per-category canonical frames documented in docs/conventions.md."""
 
 GENERATOR_VERSION = "2"
-"""Version of the procedural generators and renderer; data sets record it in meta.json. 2: views may get a
-distractor right next to the object (``GenerateConfig.adjacent_distractor``) and keep their background pool."""
+"""Version of the procedural generators and renderer; data sets record it in meta.json.
+2: every category draws one of 4-6 shape families with real-world size ranges (docs/conventions.md), 1-2
+of them held out for the new ``ood`` split (scaled 0.5-2x); per-category camera distances follow; views
+may get a distractor right next to the object (``GenerateConfig.adjacent_distractor``) and keep their
+background pool."""
 
 DATA_FORMAT_VERSION = 2
 """Version of the on-disk shard layout (:mod:`ucope.data.shards`); 2: optional background pools."""

@@ -14,57 +14,79 @@ import pytest
 import trimesh
 
 NAMES = ("laptop", "eyeglasses", "dishwasher", "scissors", "drawer")
-N_INSTANCES = 30
-N_PHYSICS = 6  # instances checked for interpenetration (winding numbers are the slow part)
+N_PER_FAMILY = 6
+N_PHYSICS = 2  # instances per family checked for interpenetration (winding numbers are the slow part)
 
-# Plausible amodal part sizes (x, y, z) in metres: lower and upper bounds per part.
-SIZE_RANGES = {
-    "laptop": {
-        "base": ((0.27, 0.011, 0.18), (0.41, 0.027, 0.28)),
-        "lid": ((0.27, 0.003, 0.18), (0.41, 0.011, 0.28)),
+# The documented real-world ranges of every family (docs/conventions.md and the modules' docstrings), as
+# extents along an axis of a part's box ("base.x") or of the whole object at its rest state ("object.z"):
+# {category: {family: {"part.axis": (lo, hi)}}}, metres.
+DIMS = {
+    "laptop": {  # base x: width; base y: base thickness with the feet; lid y: lid thickness (+ the 0.2 mm logo)
+        "ultrabook": {"base.x": (0.280, 0.360), "base.y": (0.008, 0.014), "lid.y": (0.0035, 0.0062)},
+        "mainstream": {"base.x": (0.270, 0.380), "base.y": (0.016, 0.024), "lid.y": (0.005, 0.0092)},
+        "gaming": {"base.x": (0.350, 0.410), "base.y": (0.022, 0.034), "lid.y": (0.007, 0.0122)},
+        "rugged": {"base.x": (0.280, 0.350), "base.y": (0.030, 0.045), "lid.y": (0.014, 0.0282)},
+        "wedge": {"base.x": (0.280, 0.340), "base.y": (0.013, 0.018), "lid.y": (0.004, 0.0062)},
     },
-    "eyeglasses": {
-        "frame": ((0.115, 0.025, 0.006), (0.155, 0.065, 0.02)),
-        "left_temple": ((0.0015, 0.006, 0.10), (0.006, 0.04, 0.155)),
-        "right_temple": ((0.0015, 0.006, 0.10), (0.006, 0.04, 0.155)),
+    "eyeglasses": {  # frame x: two lenses + bridge + rims + 8-26 mm of end pieces; temple z: temple length (ear bend <= 35 deg)
+        "rectangular": {"frame.x": (0.119, 0.170), "left_temple.z": (0.126, 0.150)},
+        "round": {"frame.x": (0.111, 0.158), "left_temple.z": (0.126, 0.150)},
+        "wayfarer": {"frame.x": (0.125, 0.169), "left_temple.z": (0.131, 0.150)},
+        "browline": {"frame.x": (0.125, 0.165), "left_temple.z": (0.126, 0.150)},
+        "kids": {"frame.x": (0.098, 0.139), "left_temple.z": (0.108, 0.130)},
+        "aviator": {"frame.x": (0.134, 0.173), "left_temple.z": (0.126, 0.150)},
     },
-    "dishwasher": {
-        "body": ((0.44, 0.79, 0.49), (0.63, 0.89, 0.66)),
-        "door": ((0.44, 0.66, 0.04), (0.63, 0.81, 0.16)),
+    "dishwasher": {  # body x: width (+ worktop lip); body y: height; object z: depth with the door (+ handle)
+        "freestanding": {"body.x": (0.595, 0.615), "body.y": (0.815, 0.890), "object.z": (0.570, 0.700)},
+        "slim": {"body.x": (0.445, 0.455), "body.y": (0.815, 0.860), "object.z": (0.550, 0.700)},
+        "integrated": {"body.x": (0.446, 0.598), "body.y": (0.815, 0.870), "object.z": (0.550, 0.650)},
+        "countertop": {"body.x": (0.540, 0.560), "body.y": (0.430, 0.500), "object.z": (0.480, 0.590)},
     },
-    "scissors": {
-        "blade_a": ((0.02, 0.003, 0.12), (0.08, 0.012, 0.26)),
-        "blade_b": ((0.02, 0.003, 0.12), (0.08, 0.012, 0.26)),
+    "scissors": {  # object z: overall length (blunt tips up to 6 % shorter)
+        "office": {"object.z": (0.160, 0.220)}, "kitchen": {"object.z": (0.190, 0.250)}, "craft": {"object.z": (0.110, 0.160)},
+        "nail": {"object.z": (0.082, 0.105)}, "hairdressing": {"object.z": (0.135, 0.190)},
     },
-    "drawer": {
-        "cabinet": ((0.39, 0.49, 0.34), (0.96, 1.11, 0.66)),
-        "drawer_top": ((0.35, 0.09, 0.28), (0.90, 0.36, 0.63)),
-        "drawer_middle": ((0.35, 0.09, 0.28), (0.90, 0.36, 0.63)),
-        "drawer_bottom": ((0.35, 0.09, 0.28), (0.90, 0.36, 0.63)),
+    "drawer": {  # cabinet x: width (+ top overhang, splayed legs); cabinet y: height; object z: depth (+ fronts and handles)
+        "tabletop": {"cabinet.x": (0.25, 0.43), "cabinet.y": (0.20, 0.38), "object.z": (0.25, 0.45)},
+        "nightstand": {"cabinet.x": (0.38, 0.65), "cabinet.y": (0.45, 0.80), "object.z": (0.35, 0.58)},
+        "dresser": {"cabinet.x": (0.70, 1.86), "cabinet.y": (0.70, 1.05), "object.z": (0.40, 0.62)},
+        "filing": {"cabinet.x": (0.38, 0.50), "cabinet.y": (0.95, 1.35), "object.z": (0.55, 0.76)},
+        "legged": {"cabinet.x": (0.80, 2.14), "cabinet.y": (0.60, 0.95), "object.z": (0.40, 0.60)},
     },
 }
+CASES = [(name, fam) for name in NAMES for fam in importlib.import_module(f"ucope.objects.categories.{name}").SPEC.family_names]
 
 
 def _module(name):
     return importlib.import_module(f"ucope.objects.categories.{name}")
 
 
-def _build(name, seed):
-    return _module(name).SPEC.build(np.random.default_rng(seed), f"{name}/test/{seed:06d}")
+def _build(name, seed, family=None):
+    spec = _module(name).SPEC
+    family = family or spec.family_names[0]
+    return spec.build(np.random.default_rng(seed), f"{name}/{family}/{seed:06d}", family)
 
 
 _CACHE: dict = {}
 
 
-def _instances(name):
-    if name not in _CACHE:
+def _family_instances(name, family):
+    if (name, family) not in _CACHE:
         objs, times = [], []
-        for seed in range(N_INSTANCES):
+        for seed in range(N_PER_FAMILY):
             t0 = time.perf_counter()
-            objs.append(_build(name, seed))
+            objs.append(_build(name, seed, family))
             times.append(time.perf_counter() - t0)
-        _CACHE[name] = (objs, np.array(times))
-    return _CACHE[name]
+        _CACHE[name, family] = (objs, np.array(times))
+    return _CACHE[name, family]
+
+
+def _instances(name):
+    """(objects, build seconds) of every family's instances, the families interleaved (the first few
+    objects cover every family)."""
+    per = [_family_instances(name, fam) for fam in _module(name).SPEC.family_names]
+    objs = [o for i in range(N_PER_FAMILY) for o, _ in [(p[0][i], None) for p in per]]
+    return objs, np.concatenate([p[1] for p in per])
 
 
 def _centres(obj, state):
@@ -128,12 +150,18 @@ def test_spec_fields(name):
     assert spec.description
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_instances_build_and_match_spec(name):
+def test_every_family_has_documented_ranges():
+    for name in NAMES:
+        assert set(DIMS[name]) == set(_module(name).SPEC.family_names), name
+
+
+@pytest.mark.parametrize("name,family", CASES)
+def test_instances_build_and_match_spec(name, family):
     spec = _module(name).SPEC
-    objs, _ = _instances(name)
+    objs, _ = _family_instances(name, family)
     seen = set()
     for obj in objs:
+        assert obj.shape_family == family and obj.scale == 1.0
         assert obj.category == name
         assert obj.num_parts == spec.num_parts
         assert tuple(p.name for p in obj.parts) == spec.part_names
@@ -141,10 +169,13 @@ def test_instances_build_and_match_spec(name):
         assert tuple(p.symmetry for p in obj.parts) == spec.symmetry
         sizes = obj.size_m
         assert np.all(sizes > 0)
-        for k, part in enumerate(obj.parts):
-            lo, hi = (np.array(b) for b in SIZE_RANGES[name][part.name])
-            assert np.all(sizes[k] >= lo) and np.all(sizes[k] <= hi), (part.name, sizes[k])
-            assert len(part.mesh.faces) > 100
+        lo_o, hi_o = obj.bounds(obj.rest_state)
+        for key, (lo, hi) in DIMS[name][family].items():
+            part, axis = key.split(".")
+            x = (hi_o - lo_o)["xyz".index(axis)] if part == "object" else sizes[spec.part_names.index(part), "xyz".index(axis)]
+            assert lo * 0.99 - 5e-4 <= x <= hi * 1.01 + 5e-4, (obj.instance_id, key, x, lo, hi)
+        for part in obj.parts:
+            assert len(part.mesh.faces) >= 60
         n_faces = sum(len(p.mesh.faces) for p in obj.parts)
         assert n_faces < 20000
         lim = obj.limits
@@ -155,23 +186,23 @@ def test_instances_build_and_match_spec(name):
         seen.add(key)
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_deterministic(name):
+@pytest.mark.parametrize("name,family", CASES)
+def test_deterministic(name, family):
     for seed in (0, 7):
-        a, b = _build(name, seed), _build(name, seed)
+        a, b = _build(name, seed, family), _build(name, seed, family)
         assert a.params == b.params
         for pa, pb in zip(a.parts, b.parts):
             np.testing.assert_array_equal(pa.mesh.vertices, pb.mesh.vertices)
             np.testing.assert_array_equal(pa.mesh.faces, pb.mesh.faces)
         np.testing.assert_array_equal(a.object_from_part(), b.object_from_part())
-    v0, v1 = _build(name, 0).parts[0].mesh.vertices, _build(name, 1).parts[0].mesh.vertices
+    v0, v1 = _build(name, 0, family).parts[0].mesh.vertices, _build(name, 1, family).parts[0].mesh.vertices
     assert v0.shape != v1.shape or not np.allclose(v0, v1)
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_no_gross_interpenetration(name):
+@pytest.mark.parametrize("name,family", CASES)
+def test_no_gross_interpenetration(name, family):
     """At the limits, the rest state and state 0: < 5 % of a child's vertices lie inside its parent."""
-    objs, _ = _instances(name)
+    objs, _ = _family_instances(name, family)
     for obj in objs[:N_PHYSICS]:
         for q in _check_states(obj):
             meshes = obj.posed_meshes(q)
@@ -186,8 +217,8 @@ def test_no_gross_interpenetration(name):
 
 
 def test_laptop_opens_upwards():
-    for obj in _instances("laptop")[0][:10]:
-        W, D, T = obj.params["width"], obj.params["depth"], obj.params["base_thickness"]
+    for obj in _instances("laptop")[0]:
+        D = obj.params["depth"]
         base_top = obj.size_m[0, 1] / 2  # the base box is centred on the object origin
         c_rest = _centres(obj, [1.57])[1]
         assert c_rest[1] > base_top + 0.35 * D  # standing up
@@ -199,7 +230,7 @@ def test_laptop_opens_upwards():
 
 
 def test_dishwasher_door_opens_forward_and_down():
-    for obj in _instances("dishwasher")[0][:10]:
+    for obj in _instances("dishwasher")[0]:
         c0, c1 = _centres(obj, [0.0])[1], _centres(obj, [1.57])[1]
         H = obj.params["height"]
         assert c1[2] - c0[2] > 0.25 * H
@@ -211,7 +242,7 @@ def test_dishwasher_door_opens_forward_and_down():
 
 
 def test_drawer_moves_exactly_along_z():
-    for obj in _instances("drawer")[0][:10]:
+    for obj in _instances("drawer")[0]:
         lim = obj.limits
         assert np.allclose(lim[:, 0], 0.0)
         assert np.allclose(lim[:, 1], 0.75 * obj.params["drawer_depth"])
@@ -230,7 +261,7 @@ def test_drawer_moves_exactly_along_z():
 
 
 def test_scissors_tips_and_loops_separate():
-    for obj in _instances("scissors")[0][:10]:
+    for obj in _instances("scissors")[0]:
         Lb = obj.params["blade_length"]
         v0, v1 = _part_vertices(obj, [0.0]), _part_vertices(obj, [1.0])
         tips = [int(np.argmin(v0[k][:, 2])) for k in (0, 1)]  # tip vertex of each blade (closed)
@@ -249,7 +280,7 @@ def test_scissors_tips_and_loops_separate():
 
 
 def test_eyeglasses_temples_fold_inwards():
-    for obj in _instances("eyeglasses")[0][:10]:
+    for obj in _instances("eyeglasses")[0]:
         L = obj.params["temple_length"]
         c0 = _centres(obj, [0.0, 0.0])
         c1 = _centres(obj, [1.45, 1.45])
@@ -266,7 +297,7 @@ def test_eyeglasses_temples_fold_inwards():
 
 
 def test_eyeglasses_folded_temples_overlap_slightly():
-    for obj in _instances("eyeglasses")[0][:N_PHYSICS]:
+    for obj in _instances("eyeglasses")[0][: 2 * len(DIMS["eyeglasses"])]:
         meshes = obj.posed_meshes([1.45, 1.45])
         # the two temples cross behind the front (same height, not yet parallel at 1.45 rad): only the
         # few millimetres around the crossing may overlap (measured: <= 4 % of the right temple)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from ucope.errors import InputError
-from ucope.geometry.transforms import apply_transform, axis_angle_transform
+from ucope.geometry.transforms import axis_angle_transform
 from ucope.objects.articulation import ArticulatedObject, Joint, Part, build_object, make_part
 from ucope.objects.shapes import box
 from tests_support import make_toy_object  # noqa: E402
@@ -80,3 +80,32 @@ def test_chain_of_three_parts():
     np.testing.assert_allclose(P[2, :3, 3], [0.1, 0.0, -0.4], atol=1e-12)
     v, f, lab = obj.posed_geometry([np.pi / 2, 0.1])
     assert set(lab.tolist()) == {0, 1, 2} and len(f) == 36
+
+
+def test_scaled_object_scales_every_length_and_keeps_the_frames():
+    obj = make_toy_object()
+    s = 1.7
+    big = obj.scaled(s)
+    assert big.scale == pytest.approx(s) and obj.scale == 1.0 and big.params == obj.params
+    np.testing.assert_allclose(big.size_m, s * obj.size_m)
+    j, jb = obj.joints[0], big.joints[0]
+    np.testing.assert_allclose(jb.pivot, s * j.pivot)
+    np.testing.assert_array_equal(jb.axis, j.axis)
+    assert jb.limits == j.limits  # revolute: radians
+    q = [0.3]
+    A, B = big.object_from_part(q), obj.object_from_part(q)
+    np.testing.assert_allclose(A[:, :3, :3], B[:, :3, :3], atol=1e-12)
+    np.testing.assert_allclose(A[:, :3, 3], s * B[:, :3, 3], atol=1e-12)
+    for bad in (0.0, -1.0, float("inf")):
+        with pytest.raises(InputError):
+            obj.scaled(bad)
+
+
+def test_scaled_prismatic_joint_scales_its_limits():
+    base, T0 = make_part("base", box([0.4, 0.1, 0.4]))
+    slide, T1 = make_part("slide", box([0.2, 0.05, 0.2], [0.0, 0.1, 0.0]))
+    obj = build_object("toy", "toy/0", [(base, T0), (slide, T1)],
+                       joints=[dict(type="prismatic", parent=0, child=1, pivot=(0, 0.1, 0), axis=(0, 0, 1), limits=(0.0, 0.3), rest=0.1)])
+    half = obj.scaled(0.5)
+    assert half.joints[0].limits == pytest.approx((0.0, 0.15)) and half.joints[0].rest == pytest.approx(0.05)
+    np.testing.assert_allclose(half.object_from_part([0.15])[1, :3, 3], 0.5 * obj.object_from_part([0.3])[1, :3, 3])

@@ -14,42 +14,83 @@ from ucope.objects.categories import CategorySpec, bottle, bowl, camera, can, la
 
 MODULES = {"bottle": bottle, "bowl": bowl, "camera": camera, "can": can, "laptop_rigid": laptop_rigid, "mug": mug}
 SYMMETRIC = ("bottle", "bowl", "can")
-N = 30
+N = 8  # instances per shape family
 _CACHE: dict = {}
 
+# The documented real-world ranges of every family (docs/conventions.md and the modules' docstrings), as
+# extents of the body's box along an axis: {category: {family: {axis: (lo, hi)}}}, metres.
+DIMS = {
+    "bottle": {  # y: height with the cap, x: body diameter
+        "wine": {"y": (0.28, 0.35), "x": (0.068, 0.085)}, "water": {"y": (0.18, 0.33), "x": (0.055, 0.092)},
+        "slim": {"y": (0.19, 0.30), "x": (0.045, 0.062)}, "flask": {"y": (0.17, 0.28), "x": (0.060, 0.080)},
+        "squat": {"y": (0.09, 0.16), "x": (0.060, 0.100)},
+    },
+    "bowl": {  # x: rim diameter, y: height
+        "round": {"x": (0.105, 0.200), "y": (0.045, 0.095)}, "ramekin": {"x": (0.075, 0.110), "y": (0.038, 0.060)},
+        "shallow": {"x": (0.180, 0.300), "y": (0.030, 0.060)}, "serving": {"x": (0.200, 0.300), "y": (0.080, 0.130)},
+        "footed": {"x": (0.100, 0.180), "y": (0.065, 0.130)},
+    },
+    "can": {  # x: diameter, y: height
+        "standard": {"x": (0.065, 0.068), "y": (0.115, 0.135)}, "slim": {"x": (0.053, 0.058), "y": (0.088, 0.146)},
+        "tall": {"x": (0.065, 0.068), "y": (0.155, 0.170)}, "food": {"x": (0.065, 0.101), "y": (0.070, 0.120)},
+        "squat": {"x": (0.065, 0.100), "y": (0.035, 0.055)},
+    },
+    "mug": {  # y: height, z: the cup's widest diameter (the handle sticks out along x only)
+        "straight": {"y": (0.085, 0.120), "z": (0.072, 0.092)}, "conical": {"y": (0.075, 0.120), "z": (0.075, 0.100)},
+        "espresso": {"y": (0.050, 0.068), "z": (0.055, 0.072)}, "cappuccino": {"y": (0.060, 0.080), "z": (0.085, 0.105)},
+        "tall": {"y": (0.120, 0.150), "z": (0.075, 0.095)}, "barrel": {"y": (0.085, 0.125), "z": (0.080, 0.100)},
+    },
+    "camera": {  # x: body width (grip, lens and controls inside it)
+        "dslr": {"x": (0.125, 0.150)}, "mirrorless": {"x": (0.110, 0.135)}, "compact": {"x": (0.095, 0.115)}, "action": {"x": (0.060, 0.075)},
+    },
+    "laptop_rigid": {  # x: width (11.6 to 18 inch)
+        "ultrabook": {"x": (0.280, 0.360)}, "mainstream": {"x": (0.270, 0.380)}, "gaming": {"x": (0.350, 0.410)},
+        "rugged": {"x": (0.280, 0.350)}, "wedge": {"x": (0.280, 0.340)},
+    },
+}
+CASES = [(name, fam) for name in MODULES for fam in MODULES[name].SPEC.family_names]
 
-def _instances(name):
-    """(objects, build seconds) of seeds 0..N-1, built once per category."""
-    if name not in _CACHE:
+
+def _instances(name, family):
+    """(objects, build seconds) of seeds 0..N-1 of ``family``, built once."""
+    if (name, family) not in _CACHE:
         objs, times = [], []
         for seed in range(N):
             rng = np.random.default_rng(seed)
             t0 = time.perf_counter()
-            objs.append(MODULES[name].SPEC.build(rng, f"{name}/{seed}"))
+            objs.append(MODULES[name].SPEC.build(rng, f"{name}/{family}/{seed}", family))
             times.append(time.perf_counter() - t0)
-        _CACHE[name] = (objs, np.array(times))
-    return _CACHE[name]
+        _CACHE[name, family] = (objs, np.array(times))
+    return _CACHE[name, family]
 
 
-def _expected_size_ranges(name, p):
-    """(lo, hi) (3,) bounds on size_m (x, y, z) derived from the parameter ranges (and the instance)."""
-    if name == "bottle":
-        lo, hi = [0.05, 0.15, 0.05], [0.10, 0.32, 0.10]
-    elif name == "bowl":
-        lo, hi = [0.12, 0.04, 0.12], [0.26 + 0.008, 0.10 + 0.004, 0.26 + 0.008]
-    elif name == "can":
-        lo, hi = [0.05, 0.06, 0.05], [0.09, 0.16, 0.09]
-    elif name == "mug":
-        lo = [0.07 + 0.022, 0.07, 0.07]
-        hi = [0.11 + 0.04, 0.12, 0.11]
-    elif name == "camera":
-        lo = [0.09, 0.06, 0.03 + 0.02]
-        hi = [0.15, 0.10 + 0.03, 0.07 + 0.09 + 0.012]
-    else:  # laptop_rigid: lid 0.94-1.0 x depth, opened 70-130 degrees
-        th = np.deg2rad(p["opening_deg"])
-        lo = [0.28, 0.94 * p["depth"] * np.sin(th), p["depth"]]
-        hi = [0.40, 0.022 + 0.012 + p["lid_length"], p["depth"] + p["lid_length"] * max(0.0, -np.cos(th)) + 0.02]
-    return np.array(lo) - 1e-6, np.array(hi) + 1e-6
+def _all(name):
+    return [o for fam in MODULES[name].SPEC.family_names for o in _instances(name, fam)[0]]
+
+
+def test_every_family_has_documented_ranges():
+    for name, mod in MODULES.items():
+        assert set(DIMS[name]) == set(mod.SPEC.family_names), name
+
+
+@pytest.mark.parametrize("name,family", CASES)
+def test_instances_build_rigid_and_in_range(name, family):
+    objs, _ = _instances(name, family)
+    for obj in objs:
+        assert obj.category == name and obj.num_parts == 1 and obj.joints == () and obj.is_rigid
+        assert obj.shape_family == family and obj.scale == 1.0
+        part = obj.parts[0]
+        assert part.name == "body" and part.symmetry == MODULES[name].SPEC.symmetry[0]
+        v, f = np.asarray(part.mesh.vertices), np.asarray(part.mesh.faces)
+        assert np.all(np.isfinite(v)) and f.min() >= 0 and f.max() < len(v)
+        assert len(f) < 20000
+        lo_b, hi_b = part.mesh.bounds
+        np.testing.assert_allclose(lo_b + hi_b, 0.0, atol=1e-9)  # the box is centred on the origin
+        size = obj.size_m[0]
+        for axis, (lo, hi) in DIMS[name][family].items():
+            x = size["xyz".index(axis)]
+            assert lo * 0.99 - 5e-4 <= x <= hi * 1.01 + 5e-4, (obj.instance_id, axis, x, lo, hi)
+        assert all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj.params.values())
 
 
 @pytest.mark.parametrize("name", list(MODULES))
@@ -64,30 +105,12 @@ def test_spec(name):
     assert spec.description
 
 
-@pytest.mark.parametrize("name", list(MODULES))
-def test_instances_build_rigid_and_in_range(name):
-    objs, _ = _instances(name)
-    for obj in objs:
-        assert obj.category == name and obj.num_parts == 1 and obj.joints == () and obj.is_rigid
-        part = obj.parts[0]
-        assert part.name == "body" and part.symmetry == MODULES[name].SPEC.symmetry[0]
-        v, f = np.asarray(part.mesh.vertices), np.asarray(part.mesh.faces)
-        assert np.all(np.isfinite(v)) and f.min() >= 0 and f.max() < len(v)
-        assert len(f) < 20000
-        lo_b, hi_b = part.mesh.bounds
-        np.testing.assert_allclose(lo_b + hi_b, 0.0, atol=1e-9)  # the box is centred on the origin
-        lo, hi = _expected_size_ranges(name, obj.params)
-        size = obj.size_m[0]
-        assert np.all(size >= lo) and np.all(size <= hi), (obj.instance_id, size, lo, hi)
-        assert all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj.params.values())
-
-
-@pytest.mark.parametrize("name", list(MODULES))
-def test_params_distinct_and_deterministic(name):
-    objs, _ = _instances(name)
+@pytest.mark.parametrize("name,family", CASES)
+def test_params_distinct_and_deterministic(name, family):
+    objs, _ = _instances(name, family)
     keys = {tuple(sorted(o.params.items())) for o in objs}
     assert len(keys) == N
-    again = MODULES[name].SPEC.build(np.random.default_rng(7), "again")
+    again = MODULES[name].SPEC.build(np.random.default_rng(7), "again", family)
     np.testing.assert_array_equal(again.parts[0].mesh.vertices, objs[7].parts[0].mesh.vertices)
     np.testing.assert_array_equal(again.parts[0].mesh.faces, objs[7].parts[0].mesh.faces)
     assert again.params == objs[7].params
@@ -95,15 +118,14 @@ def test_params_distinct_and_deterministic(name):
 
 @pytest.mark.parametrize("name", list(MODULES))
 def test_build_time(name):
-    _, times = _instances(name)
+    times = np.concatenate([_instances(name, fam)[1] for fam in MODULES[name].SPEC.family_names])
     print(f"{name}: mean build {1e3 * times.mean():.2f} ms, max {1e3 * times.max():.2f} ms")
     assert times.mean() < 0.1
 
 
 @pytest.mark.parametrize("name", SYMMETRIC)
 def test_symmetric_about_y(name):
-    objs, _ = _instances(name)
-    for obj in objs:
+    for obj in _all(name):
         v = obj.parts[0].mesh.vertices
         sx, sy, sz = obj.size_m[0]
         assert abs(sx - sz) <= 0.02 * sx
@@ -118,12 +140,11 @@ def test_symmetric_about_y(name):
 
 
 def test_mug_handle_on_plus_x():
-    objs, _ = _instances("mug")
-    for obj in objs:
+    for obj in _all("mug"):
         v = obj.parts[0].mesh.vertices
         sx, sy, sz = obj.size_m[0]
         p = obj.params
-        assert sx > sz + 0.02  # the handle sticks out along x only
+        assert sx > sz + 0.012  # the handle sticks out along x only
         np.testing.assert_allclose(sz, 2 * p["radius"], rtol=0.02)
         np.testing.assert_allclose(sx, 2 * p["radius"] + p["handle_reach"], rtol=0.02)
         # the rim (top 1 mm) is a circle whose centre, the cup's axis, is left of the box centre
@@ -136,8 +157,7 @@ def test_mug_handle_on_plus_x():
 
 
 def test_camera_lens_points_plus_z():
-    objs, _ = _instances("camera")
-    for obj in objs:
+    for obj in _all("camera"):
         v = obj.parts[0].mesh.vertices
         p = obj.params
         front = v[v[:, 2] > v[:, 2].max() - 0.002]
@@ -149,8 +169,7 @@ def test_camera_lens_points_plus_z():
 
 
 def test_laptop_lid_above_hinge_at_back():
-    objs, _ = _instances("laptop_rigid")
-    for obj in objs:
+    for obj in _all("laptop_rigid"):
         v = obj.parts[0].mesh.vertices
         p = obj.params
         np.testing.assert_allclose(obj.size_m[0, 0], p["width"], atol=1e-6)

@@ -369,7 +369,7 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..objects.categories import CATEGORY_NAMES
+    from ..objects.categories import CATEGORY_NAMES, SPLITS
     from .outputs import add_eval_format_options, add_output_options, add_view_options
 
     p = argparse.ArgumentParser(prog="ucope", description="Universal 9D category-level pose estimation of rigid and articulated objects.")
@@ -381,7 +381,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     g = sub.add_parser("generate", help="generate a synthetic data set (sharded, resumable)")
     g.add_argument("--category", required=True, help=f"one of: {', '.join(CATEGORY_NAMES)}")
-    g.add_argument("--split", default="train", choices=["train", "val", "test"], help="instance split (disjoint instance streams)")
+    g.add_argument("--split", default="train", choices=SPLITS, help="instance split (disjoint instance streams)")
     g.add_argument("--num", type=int, required=True, help="number of views")
     g.add_argument("--out", required=True, help="output folder (created; re-running resumes)")
     g.add_argument("--seed", type=int, default=0)

@@ -22,6 +22,7 @@ This can hold any URDF tree of fixed, revolute and prismatic links.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -142,7 +143,11 @@ class ArticulatedObject:
         instance_id: a name unique to this instance (``"laptop/train/000042"``).
         parts: the K parts; part 0 is the root and its frame is the object frame.
         joints: the K-1 joints; every part but the root is the child of exactly one joint.
-        params: the shape parameters the instance was generated from (for bookkeeping).
+        params: the shape parameters the instance was generated from (for bookkeeping; lengths in metres
+            BEFORE scaling by ``scale``).
+        shape_family: the category's shape family the instance was drawn from (``""`` if none).
+        scale: the uniform scale factor applied to the generated shape (1: as generated);
+            see :meth:`scaled`.
     """
 
     category: str
@@ -150,6 +155,8 @@ class ArticulatedObject:
     parts: tuple[Part, ...]
     joints: tuple[Joint, ...] = ()
     params: dict = field(default_factory=dict)
+    shape_family: str = ""
+    scale: float = 1.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "parts", tuple(self.parts))
@@ -283,6 +290,33 @@ class ArticulatedObject:
                         "limits": [float(j.limits[0]), float(j.limits[1])]} for j in self.joints],
         }
 
+    def scaled(self, factor: float) -> "ArticulatedObject":
+        """The same object scaled uniformly by ``factor`` about the object frame's origin.
+
+        Every length scales: part meshes (so box sizes), the parts' placements, joint pivots, and the
+        limits and rest states of prismatic joints (metres). Rotations, joint axes, revolute limits (radians)
+        and the canonical frames are unchanged, so ``object_from_part(state)`` of the scaled object at a
+        revolute state ``q`` (or a prismatic state ``factor * q``) is the original's with its translation
+        times ``factor``. ``scale`` of the result is ``self.scale * factor``; ``params`` are kept as they were.
+        """
+        f = float(factor)
+        if not np.isfinite(f) or f <= 0:
+            raise InputError(f"scale factor must be a positive finite number, got {factor!r}")
+        parts = tuple(
+            Part(name=p.name, symmetry=p.symmetry,
+                 mesh=trimesh.Trimesh(vertices=np.asarray(p.mesh.vertices) * f, faces=np.asarray(p.mesh.faces), process=False))
+            for p in self.parts
+        )
+        joints = []
+        for j in self.joints:
+            T = j.parent_from_child_zero.copy()
+            T[:3, 3] *= f
+            prismatic = JointType.parse(j.type) == JointType.PRISMATIC
+            k = f if prismatic else 1.0
+            joints.append(Joint(type=j.type, parent=j.parent, child=j.child, pivot=j.pivot * f, axis=j.axis,
+                                limits=(j.limits[0] * k, j.limits[1] * k), rest=j.rest * k, parent_from_child_zero=T))
+        return dataclasses.replace(self, parts=parts, joints=tuple(joints), scale=self.scale * f)
+
     def bounds(self, state: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """``(2, 3)`` axis-aligned bounds of the whole object in the object frame at ``state``."""
         v, _, _ = self.posed_geometry(state)
@@ -320,6 +354,7 @@ def build_object(
     parts: Sequence[tuple[Part, np.ndarray]],
     joints: Sequence[dict] = (),
     params: dict | None = None,
+    shape_family: str = "",
 ) -> ArticulatedObject:
     """Assemble an object from parts and joints written in the object frame at state 0.
 
@@ -328,6 +363,7 @@ def build_object(
             is the root. The object frame is re-anchored on the root part frame.
         joints: dicts with keys ``type, parent, child, pivot, axis, limits, rest``; ``pivot`` and
             ``axis`` are in the object frame (at state 0).
+        shape_family: the category's shape family the instance belongs to.
     """
     poses = np.stack([T for _, T in parts])
     root_inv = invert_transform(poses[0])
@@ -347,5 +383,5 @@ def build_object(
         )
     return ArticulatedObject(
         category=category, instance_id=instance_id, parts=tuple(p for p, _ in parts), joints=tuple(built),
-        params=dict(params or {}),
+        params=dict(params or {}), shape_family=shape_family,
     )

@@ -1,9 +1,20 @@
 """The procedural categories: a registry of :class:`CategorySpec`, one module per category.
 
-Each category is a generator: ``spec.build(rng, instance_id) -> ArticulatedObject`` draws a new,
-plausible instance from shape-parameter ranges. :func:`make_instance` derives the random stream from
-``(category, split, index, seed)`` with :class:`numpy.random.SeedSequence`, so train and test instances
-come from disjoint streams by construction, and instance ``i`` is the same on every machine.
+Each category is a generator: ``spec.build(rng, instance_id, shape_family) -> ArticulatedObject`` draws a
+new, plausible instance of one of the category's :class:`ShapeFamily` from its shape-parameter ranges
+(real-world dimensions, documented in docs/conventions.md). :func:`make_instance` derives the random
+stream from ``(category, split, index, seed)`` with :class:`numpy.random.SeedSequence`, so the splits'
+instances come from disjoint streams by construction, and instance ``i`` is the same on every machine.
+
+Splits (:data:`SPLITS`):
+
+* ``train``, ``val``, ``test``: the category's families that are not held out, drawn uniformly, at the
+  generated size (scale 1).
+* ``ood`` (out of distribution): only the held-out families (drawn uniformly), each instance scaled
+  uniformly (:meth:`ArticulatedObject.scaled`) by a factor drawn log-uniformly in :data:`OOD_SCALE_RANGE`.
+
+:func:`make_instance` can also build any split's instance at an explicit ``scale`` (the same shape, scaled:
+for scale curves) or of an explicit ``family`` (for pictures and tests).
 """
 
 from __future__ import annotations
@@ -17,10 +28,36 @@ import numpy as np
 from ...errors import InputError, UnknownCategoryError
 from ..articulation import ArticulatedObject
 
-__all__ = ["CategorySpec", "CATEGORY_NAMES", "SPLITS", "get_category", "list_categories", "make_instance", "instance_rng"]
+__all__ = [
+    "CategorySpec", "ShapeFamily", "CATEGORY_NAMES", "SPLITS", "IN_DISTRIBUTION_SPLITS", "OOD_SCALE_RANGE",
+    "get_category", "list_categories", "make_instance", "instance_rng", "instance_family_and_scale",
+]
 
-SPLITS = ("train", "val", "test")
-"""Instance splits. Each split draws its instances from its own random stream."""
+SPLITS = ("train", "val", "test", "ood")
+"""Instance splits. Each split draws its instances from its own random stream; ``ood`` draws only the
+held-out shape families, scaled by a factor in :data:`OOD_SCALE_RANGE`."""
+
+IN_DISTRIBUTION_SPLITS = ("train", "val", "test")
+"""The splits that draw the families that are not held out, at scale 1."""
+
+OOD_SCALE_RANGE = (0.5, 2.0)
+"""The ``ood`` split's scale factors are drawn log-uniformly in this range."""
+
+
+@dataclass(frozen=True)
+class ShapeFamily:
+    """A kind of product within a category (e.g. a mug's ``"espresso"`` cup), with its own shape and size
+    ranges (the category module's docstring gives them).
+
+    Attributes:
+        name: short identifier, unique within the category.
+        description: one line (the real products it stands for).
+        held_out: ``True``: only the ``ood`` split draws it; train, val and test never do.
+    """
+
+    name: str
+    description: str
+    held_out: bool = False
 
 
 @dataclass(frozen=True)
@@ -35,7 +72,8 @@ class CategorySpec:
         symmetry: per part ``"none"`` or ``"y"``.
         distance_range_m: camera distance range (to the object centre) for rendering, metres.
         elevation_range_deg: camera elevation range above the object's x-z plane, degrees.
-        build: ``(rng, instance_id) -> ArticulatedObject``.
+        shape_families: the category's shape families (1-2 of them held out for the ``ood`` split).
+        build: ``(rng, instance_id, shape_family) -> ArticulatedObject``: an instance of that family.
         description: one line for ``ucope categories``.
     """
 
@@ -46,12 +84,37 @@ class CategorySpec:
     symmetry: tuple[str, ...]
     distance_range_m: tuple[float, float]
     elevation_range_deg: tuple[float, float]
-    build: Callable[[np.random.Generator, str], ArticulatedObject]
+    shape_families: tuple[ShapeFamily, ...]
+    build: Callable[[np.random.Generator, str, str], ArticulatedObject]
     description: str = ""
+
+    def __post_init__(self) -> None:
+        names = [f.name for f in self.shape_families]
+        if len(set(names)) != len(names) or not names:
+            raise ValueError(f"{self.name}: shape family names must be unique and non-empty, got {names}")
+        if not any(f.held_out for f in self.shape_families) or all(f.held_out for f in self.shape_families):
+            raise ValueError(f"{self.name}: some shape families, not all, must be held out")
 
     @property
     def num_parts(self) -> int:
         return len(self.part_names)
+
+    @property
+    def family_names(self) -> tuple[str, ...]:
+        """Every shape family's name, in declaration order."""
+        return tuple(f.name for f in self.shape_families)
+
+    @property
+    def held_out_families(self) -> tuple[str, ...]:
+        """The families only the ``ood`` split draws."""
+        return tuple(f.name for f in self.shape_families if f.held_out)
+
+    def families_for_split(self, split: str) -> tuple[str, ...]:
+        """The families ``split`` draws from: the held-out ones for ``"ood"``, the others otherwise."""
+        if split not in SPLITS:
+            raise InputError(f"unknown split {split!r}; valid splits: {', '.join(SPLITS)}")
+        ood = split == "ood"
+        return tuple(f.name for f in self.shape_families if f.held_out == ood)
 
 
 def _load() -> dict[str, CategorySpec]:
@@ -118,9 +181,55 @@ def instance_rng(category: str, split: str, index: int, seed: int = 0) -> np.ran
     return np.random.default_rng(ss)
 
 
-def make_instance(category: str, split: str, index: int, seed: int = 0) -> ArticulatedObject:
-    """Build instance ``index`` of ``category`` for ``split`` (``"train"``, ``"val"`` or ``"test"``)."""
+def _draw_family_and_scale(spec: CategorySpec, split: str, rng: np.random.Generator) -> tuple[str, float]:
+    """The first draws of an instance's stream: its shape family, then (ood only) its scale factor."""
+    choices = spec.families_for_split(split)
+    family = choices[int(rng.integers(len(choices)))]
+    factor = float(np.exp(rng.uniform(np.log(OOD_SCALE_RANGE[0]), np.log(OOD_SCALE_RANGE[1])))) if split == "ood" else 1.0
+    return family, factor
+
+
+def instance_family_and_scale(category: str, split: str, index: int, seed: int = 0) -> tuple[str, float]:
+    """The shape family and the scale factor of instance ``index`` of ``split`` (what :func:`make_instance`
+    builds by default), without building it."""
+    return _draw_family_and_scale(get_category(category), split, instance_rng(category, split, index, seed))
+
+
+def make_instance(
+    category: str,
+    split: str,
+    index: int,
+    seed: int = 0,
+    *,
+    scale: float | None = None,
+    family: str | None = None,
+) -> ArticulatedObject:
+    """Build instance ``index`` of ``category`` for ``split`` (one of :data:`SPLITS`).
+
+    The instance's stream first draws its shape family (uniformly among
+    :meth:`CategorySpec.families_for_split`), then, for ``"ood"`` only, its scale factor (log-uniform in
+    :data:`OOD_SCALE_RANGE`), then the shape. So:
+
+    Args:
+        scale: build the same instance scaled by this factor instead of the split's own (1 for train,
+            val and test; the drawn factor for ood): the shape does not depend on it, so instance ``i`` at
+            scales 0.5, 1 and 2 is one shape at three sizes (:meth:`ArticulatedObject.scaled`).
+        family: build a shape of this family instead of the drawn one (the rest of the stream is the same);
+            any family of the category, held out or not, for pictures and tests. Data sets never set it.
+
+    Returns:
+        The object; its ``shape_family`` and ``scale`` say what was built.
+    """
     spec = get_category(category)
     rng = instance_rng(category, split, index, seed)
-    obj = spec.build(rng, f"{category}/{split}/{seed}/{index:06d}")
-    return obj
+    drawn, factor = _draw_family_and_scale(spec, split, rng)
+    if family is not None:
+        if family not in spec.family_names:
+            raise InputError(f"{category} has no shape family {family!r}; its families: {', '.join(spec.family_names)}")
+        drawn = family
+    if scale is not None:
+        if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)) or not np.isfinite(scale) or scale <= 0:
+            raise InputError(f"scale must be a positive finite number, got {scale!r}")
+        factor = float(scale)
+    obj = spec.build(rng, f"{category}/{split}/{seed}/{index:06d}", drawn)
+    return obj.scaled(factor) if factor != 1.0 else obj

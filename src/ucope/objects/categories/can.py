@@ -10,7 +10,20 @@ Geometry: one open profile revolved about y, from the bottom centre to the lid c
 * ``style = 1`` (food tin): seamed rims (small lips) top and bottom at the full radius, a body slightly
   thinner than the rims with a few circumferential ribs, and lids inset at both ends.
 
-Parameter ranges: radius 0.025-0.045 m, height 0.06-0.16 m.
+Shape families (outer diameter D, height H; metres):
+
+========= ============== ============== ==========================================================
+family    D              H              products
+========= ============== ============== ==========================================================
+standard  0.065-0.068    0.115-0.135    drink can, 330 ml (115 x 66 mm), 355 ml (122 mm), 440 ml (135 mm)
+slim      0.053-0.058    0.088-0.146    slim / sleek drink cans: 150 ml mini, 250 ml slim (134 x 53 mm), 330 ml sleek (146 x 58 mm)
+tall      0.065-0.068    0.155-0.170    tall drink / energy cans, 473-568 ml (500 ml: 168 x 66 mm)
+food      0.065-0.101    0.070-0.120    food tins (ribbed or plain), 200-800 g
+squat     0.065-0.100    0.035-0.055    squat tins (tuna, pet food, 85 x 40 mm); held out
+========= ============== ============== ==========================================================
+
+Drink cans (standard, slim, tall) have the drink-can profile (``style`` 0), the others the food-tin one
+(``style`` 1).
 """
 
 from __future__ import annotations
@@ -18,8 +31,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
-from . import CategorySpec
-from ._rigid_common import arc, finish, lathe, uniform
+from ..shapes import arc, revolve_profile
+from . import CategorySpec, ShapeFamily
+from .helpers import rigid_object, uniform
 
 SECTIONS = 48
 
@@ -54,7 +68,7 @@ def _food_tin(R: float, H: float, rng: np.random.Generator, p: dict) -> np.ndarr
     rim_h = p["rim_height"] = uniform(rng, 0.002, 0.004)
     step = p["body_step"] = uniform(rng, 0.0008, 0.0018)
     inset = p["lid_inset"] = uniform(rng, 0.002, 0.004)
-    n_ribs = p["n_ribs"] = int(rng.integers(0, 11))
+    n_ribs = p["n_ribs"] = min(int(rng.integers(0, 11)), max(0, int((H - 0.012) / 0.008)))
     rib_depth = p["rib_depth"] = uniform(rng, 0.0004, 0.001)
     Rbody = R - step
     r_lid = R - rim_h - 0.0005
@@ -72,14 +86,34 @@ def _food_tin(R: float, H: float, rng: np.random.Generator, p: dict) -> np.ndarr
     return np.concatenate([bottom, rim_lo, body, rim_hi, top])
 
 
-def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
-    R = uniform(rng, 0.025, 0.045)
-    H = uniform(rng, 0.06, 0.16)
-    style = int(rng.random() < 0.35)
+FAMILIES = (
+    ShapeFamily("standard", "drink can, 330-440 ml"),
+    ShapeFamily("slim", "slim / sleek drink cans, 150-330 ml"),
+    ShapeFamily("tall", "tall drink / energy cans, 473-568 ml"),
+    ShapeFamily("food", "food tins, 200-800 g"),
+    ShapeFamily("squat", "squat tins: tuna, pet food", held_out=True),
+)
+
+# per family: (lo, hi) of diameter and height (m), and the profile style (0 drink can, 1 food tin)
+RANGES = {
+    "standard": dict(diameter=(0.065, 0.068), height=(0.115, 0.135), style=0),
+    "slim": dict(diameter=(0.053, 0.058), height=(0.088, 0.146), style=0),
+    "tall": dict(diameter=(0.065, 0.068), height=(0.155, 0.170), style=0),
+    "food": dict(diameter=(0.065, 0.101), height=(0.070, 0.120), style=1),
+    "squat": dict(diameter=(0.065, 0.100), height=(0.035, 0.055), style=1),
+}
+
+
+def build(rng: np.random.Generator, instance_id: str, family: str = "standard") -> ArticulatedObject:
+    """A random can of shape ``family``; see the module docstring for the frame and the ranges."""
+    rg = RANGES[family]
+    R = uniform(rng, *rg["diameter"]) / 2
+    H = uniform(rng, *rg["height"])
+    style = rg["style"]
     params: dict = dict(radius=R, height=H, style=style)
     prof = _food_tin(R, H, rng, params) if style else _drink_can(R, H, rng, params)
-    mesh = lathe(prof, SECTIONS, closed=False)
-    return finish("can", instance_id, [mesh], "y", params)
+    mesh = revolve_profile(prof, SECTIONS, closed=False)
+    return rigid_object("can", instance_id, [mesh], "y", params, family)
 
 
 SPEC = CategorySpec(
@@ -88,8 +122,9 @@ SPEC = CategorySpec(
     part_names=("body",),
     joint_types=(),
     symmetry=("y",),
-    distance_range_m=(0.35, 0.8),
+    distance_range_m=(0.3, 0.8),
     elevation_range_deg=(10.0, 60.0),
+    shape_families=FAMILIES,
     build=build,
-    description="revolved drink can (domed bottom, neck taper, rolled lip, inset lid) or food tin (seamed rims, ribs)",
+    description="revolved drink can (standard, slim, tall: domed bottom, neck, rolled lip) or food tin (food, squat: seamed rims, ribs)",
 )

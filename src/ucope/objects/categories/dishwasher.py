@@ -4,16 +4,32 @@ Object frame (y up, x right, z towards the viewer / the front of the machine; me
 body's amodal box centre):
 
 * ``body``: the cabinet and tub, an open box (open at the front, +z) with side, top, back walls, a tub
-  floor above the kick zone, a recessed kick plate, two wire racks (rim loops, bottom grid, posts,
-  plate tines on the lower rack) on side rails, and spray arms. Width 0.45-0.62 m, height 0.80-0.88 m,
-  depth (door included) 0.55-0.65 m.
-* ``door``: the front slab (thickness 0.04-0.07 m) above the kick plate, with a control panel strip
-  (buttons, display) and a handle (a bar on stand-offs, or a pull lip under the panel) on its front, an
+  floor above the kick zone, a recessed kick plate (feet on a countertop machine), one to three wire racks
+  (rim loops, bottom grid, posts, plate tines on the lower rack; the third one a flat cutlery tray) on side
+  rails, and spray arms; a freestanding machine carries a worktop lid.
+* ``door``: the front slab above the kick plate (under the worktop), with a control panel strip (buttons,
+  display) and a handle (a bar on stand-offs, or a pull lip under the panel) on its front, or, fully
+  integrated, a plain furniture front with the controls on its top edge and a bar handle or none; an
   inner liner and a detergent dispenser on its back.
 * Joint ``body -> door`` (revolute): hinge line along x at the bottom front edge of the door (``y`` =
   top of the kick zone, ``z`` = front face of the door). State 0 is CLOSED. Axis ``(+1, 0, 0)``, so a
   positive angle opens the door downwards / forwards (its top edge moves to +z); at ``pi/2`` it lies
   horizontal in front of the tub. Limits ``(0, 1.57)`` rad, rest 0.
+
+Shape families (width W, height H, depth D with the door, metres; typical dimensions of European
+built-under dishwashers, which fill the 60 or 45 cm wide, 82-87 cm high kitchen-module niches of the
+co-ordinating sizes of EN 1116, and of 24 inch US machines):
+
+============== ======================== ============== ============== ==============================================
+family         W                        H              D              look
+============== ======================== ============== ============== ==============================================
+freestanding   0.595-0.610              0.815-0.890    0.570-0.630    60 cm EU / 24 inch US; worktop lid, door panel
+slim           0.445-0.450              0.815-0.860    0.550-0.630    45 cm; worktop lid (50 %), door panel
+integrated     0.446-0.450, 0.594-0.598 0.815-0.870    0.550-0.575    furniture front, controls on the door's top edge
+countertop     0.540-0.560              0.430-0.500    0.480-0.520    on short feet, one rack (held out)
+============== ======================== ============== ============== ==============================================
+
+Full-size machines have two racks and, half of them, a third cutlery tray at the top.
 """
 
 from __future__ import annotations
@@ -21,9 +37,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject, build_object, make_part
-from ..shapes import combine, open_box
-from . import CategorySpec
-from ._articulated_common import boxes, disc, extrude, rounded_rect, sweep_planar
+from ..shapes import boxes, combine, disc, extrude, open_box, rounded_rect, sweep_planar
+from . import CategorySpec, ShapeFamily
 
 __all__ = ["SPEC", "build"]
 
@@ -68,69 +83,124 @@ def _spray_arm(length: float, width: float, y: float, zc: float, angle: float):
     return [extrude(rect, 0.012, plane="xz", offset=y), disc(0.02, 0.03, (0.0, y - 0.015, zc), "y", 14)]
 
 
-def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
-    """A random dishwasher; see the module docstring for the frame and joint conventions."""
-    W = rng.uniform(0.45, 0.62)
-    H = rng.uniform(0.80, 0.88)
-    D = rng.uniform(0.55, 0.65)  # door included
-    Td = rng.uniform(0.04, 0.07)
+FAMILIES = (
+    ShapeFamily("freestanding", "60 cm (24 inch) freestanding dishwasher with a worktop lid"),
+    ShapeFamily("slim", "45 cm slimline dishwasher"),
+    ShapeFamily("integrated", "fully integrated dishwasher: furniture front, controls on the door's top edge"),
+    ShapeFamily("countertop", "countertop dishwasher, about 55 x 45 x 50 cm, one rack", held_out=True),
+)
+
+# per family: (lo, hi) of width, height, depth, door thickness, kick (plinth) height; probability of a worktop lid
+RANGES = {
+    "freestanding": dict(width=(0.595, 0.610), height=(0.815, 0.890), depth=(0.570, 0.630), door=(0.040, 0.070), kick=(0.08, 0.12),
+                         p_top=1.0),
+    "slim": dict(width=(0.445, 0.450), height=(0.815, 0.860), depth=(0.550, 0.630), door=(0.040, 0.070), kick=(0.08, 0.12), p_top=0.5),
+    "integrated": dict(width=(0.446, 0.598), height=(0.815, 0.870), depth=(0.550, 0.575), door=(0.050, 0.075), kick=(0.09, 0.15),
+                       p_top=0.0),
+    "countertop": dict(width=(0.540, 0.560), height=(0.430, 0.500), depth=(0.480, 0.520), door=(0.035, 0.050), kick=(0.045, 0.065),
+                       p_top=0.0),
+}
+
+
+def build(rng: np.random.Generator, instance_id: str, family: str = "freestanding") -> ArticulatedObject:
+    """A random dishwasher of shape ``family``; see the module docstring for the frame and joint conventions."""
+    rg = RANGES[family]
+    W = rng.uniform(*rg["width"])
+    if family == "integrated":  # a 45 cm or a 60 cm niche
+        W = (0.446 if rng.random() < 0.5 else 0.594) + rng.uniform(0.0, 0.004)
+    H = rng.uniform(*rg["height"])
+    D = rng.uniform(*rg["depth"])  # door included
+    Td = rng.uniform(*rg["door"])
     wt = rng.uniform(0.012, 0.022)  # wall thickness
-    kick_h = rng.uniform(0.08, 0.12)
+    kick_h = rng.uniform(*rg["kick"])
     kick_recess = rng.uniform(0.01, 0.05)
-    panel_h = rng.uniform(0.06, 0.10)
+    panel_h = rng.uniform(0.06, 0.10) if family != "countertop" else rng.uniform(0.05, 0.07)
     panel_proud = rng.uniform(0.002, 0.006)
-    handle_type = int(rng.integers(0, 2))  # 0: bar on stand-offs, 1: pull lip under the control panel
+    handle_type = int(rng.integers(0, 2))  # 0: bar on stand-offs, 1: pull lip under the control panel (integrated: none)
     handle_len = W * rng.uniform(0.45, 0.85)
     handle_r = rng.uniform(0.008, 0.013)
     handle_off = rng.uniform(0.03, 0.05)  # bar distance from the door
     n_buttons = int(rng.integers(3, 8))
     rack_rod = rng.uniform(0.0018, 0.0028)
-    lower_rack_h = rng.uniform(0.09, 0.14)
+    lower_rack_h = rng.uniform(0.09, 0.14) if family != "countertop" else rng.uniform(0.07, 0.10)
     upper_rack_h = rng.uniform(0.07, 0.11)
     upper_frac = rng.uniform(0.50, 0.60)
     arm_angles = rng.uniform(0.0, np.pi, 2)
+    has_top = int(rng.random() < rg["p_top"])
+    top_t = rng.uniform(0.015, 0.025)  # worktop lid thickness
+    top_ov = rng.uniform(0.0, 0.012)  # ... overhang over the door
+    third_rack = int(family != "countertop" and rng.random() < 0.5)
+    n_racks = 1 if family == "countertop" else 2 + third_rack
+    integrated = family == "integrated"
+    countertop = family == "countertop"
 
+    H_body = H - top_t if has_top else H  # the tub carcass (the worktop sits on it)
     Db = D - Td - 0.0015  # body depth (the door and its 1.5 mm gap make up the rest)
     zb, zf = -D / 2, -D / 2 + Db  # body back and front planes
     body = []
-    body.append(open_box((W, H, Db), wt, center=(0.0, H / 2, zb + Db / 2), open_side="+z", shelves_y=(kick_h - wt / 2 - H / 2,)))
-    body.append(boxes([[0.0, kick_h / 2, zf + Td - kick_recess - 0.005]], [[W - 0.004, kick_h - 0.004, 0.01]]))  # kick plate
+    body.append(open_box((W, H_body, Db), wt, center=(0.0, H_body / 2, zb + Db / 2), open_side="+z",
+                         shelves_y=(kick_h - wt / 2 - H_body / 2,)))
+    if countertop:  # four short feet under the base (the kick zone is the base under the door)
+        fx, fz = W / 2 - 0.04, Db / 2 - 0.04
+        body.append(boxes(np.array([[sx * fx, 0.006, zb + Db / 2 + sz * fz] for sx in (-1, 1) for sz in (-1, 1)]), [0.03, 0.012, 0.03]))
+        body.append(boxes([[0.0, 0.012 + (kick_h - 0.012) / 2, zf + Td / 2]], [[W - 0.004, kick_h - 0.012, Td]]))  # base front under the door
+    else:
+        body.append(boxes([[0.0, kick_h / 2, zf + Td - kick_recess - 0.005]], [[W - 0.004, kick_h - 0.004, 0.01]]))  # kick plate
+    if has_top:  # worktop lid over the body and the door
+        body.append(boxes([[0.0, H - top_t / 2, zb + (D + top_ov) / 2]], [[W + 0.004, top_t, D + top_ov]]))
     # tub inner extents
     wi = W - 2 * wt
     y_floor = kick_h
-    y_ceil = H - wt
+    y_ceil = H_body - wt
     rack_w = wi - 0.03
     rack_d = Db - wt - 0.06
     rack_zc = zb + wt + 0.01 + rack_d / 2
-    y_low = y_floor + rng.uniform(0.05, 0.08)
+    y_low = y_floor + rng.uniform(0.05, 0.08) if not countertop else y_floor + rng.uniform(0.04, 0.06)
     y_up = y_floor + upper_frac * (y_ceil - y_floor)
+    y_third = y_ceil - rng.uniform(0.055, 0.07)
+    if third_rack:  # the upper rack moves down a little to make room for the cutlery tray
+        y_up = min(y_up, y_third - upper_rack_h - 0.03)
+    racks_y = [y_low, y_up, y_third][:n_racks]
     body += _rack(rng, rack_w, rack_d, lower_rack_h, y_low, rack_zc, True, rack_rod)
-    body += _rack(rng, rack_w, rack_d, upper_rack_h, y_up, rack_zc, False, rack_rod)
+    if n_racks > 1:
+        body += _rack(rng, rack_w, rack_d, upper_rack_h, y_up, rack_zc, False, rack_rod)
+    if n_racks > 2:
+        body += _rack(rng, rack_w, rack_d, 0.03, y_third, rack_zc, False, rack_rod)
     # side rails carrying the racks
     rails_c, rails_e = [], []
-    for y in (y_low, y_up):
+    for y in racks_y:
         for sx in (-1, 1):
             rails_c.append([sx * (wi / 2 - 0.0075), y, rack_zc])
             rails_e.append([0.015, 0.012, rack_d + 0.02])
     body.append(boxes(np.array(rails_c), np.array(rails_e)))
     body += _spray_arm(rack_w * 0.8, 0.035, y_floor + 0.03, rack_zc, arm_angles[0])
-    body += _spray_arm(rack_w * 0.7, 0.03, y_up - 0.03, rack_zc, arm_angles[1])
+    if n_racks > 1:
+        body += _spray_arm(rack_w * 0.7, 0.03, y_up - 0.03, rack_zc, arm_angles[1])
     body.append(disc(0.05, 0.01, (0.0, y_floor + 0.005, rack_zc + rack_d * 0.25), "y", 18))  # filter
     body_mesh = combine(body)
 
-    # door at state 0: y in [kick_h, H], z in [zf + gap, zf + gap + Td] (a 1.5 mm gap to the body)
-    Hd = H - kick_h
+    # door at state 0: y in [kick_h, H_door], z in [zf + gap, zf + gap + Td] (a 1.5 mm gap to the body)
+    H_door = H_body - 0.002 if has_top else H
+    Hd = H_door - kick_h
     gap = 0.0015
     door = [extrude(rounded_rect(W - 0.002, Hd - 0.002, 0.008, 3, center=(0.0, kick_h + Hd / 2)), Td, plane="xy", offset=zf + gap + Td / 2)]
     zfront = zf + gap + Td
-    y_panel = H - 0.001 - panel_h / 2
-    door.append(boxes([[0.0, y_panel, zfront + panel_proud / 2]], [[W - 0.01, panel_h - 0.004, panel_proud]]))
-    bx = np.linspace(-0.35 * W, 0.10 * W, n_buttons)
-    door.append(boxes(np.c_[bx, np.full(n_buttons, y_panel), np.full(n_buttons, zfront + panel_proud + 0.0015)],
-                      np.tile([0.016, 0.012, 0.003], (n_buttons, 1))))
-    door.append(boxes([[0.25 * W, y_panel, zfront + panel_proud + 0.001]], [[0.09, 0.03, 0.002]]))  # display
+    if integrated:  # controls on the top edge of the door, a plain furniture front with a bar handle or none
+        bx = np.linspace(-0.30 * W, 0.05 * W, n_buttons)
+        door.append(boxes(np.c_[bx, np.full(n_buttons, H_door - 0.001 + 0.0015), np.full(n_buttons, zf + gap + 0.6 * Td)],
+                          np.tile([0.014, 0.003, 0.010], (n_buttons, 1))))
+        door.append(boxes([[0.25 * W, H_door - 0.001 + 0.001, zf + gap + 0.6 * Td]], [[0.07, 0.002, 0.012]]))  # display
+        y_panel = H_door - panel_h / 2
+        handle_type = 0 if handle_type == 0 else 2  # 2: none (push to open)
+    else:
+        y_panel = H_door - 0.001 - panel_h / 2
+        door.append(boxes([[0.0, y_panel, zfront + panel_proud / 2]], [[W - 0.01, panel_h - 0.004, panel_proud]]))
+        bx = np.linspace(-0.35 * W, 0.10 * W, n_buttons)
+        door.append(boxes(np.c_[bx, np.full(n_buttons, y_panel), np.full(n_buttons, zfront + panel_proud + 0.0015)],
+                          np.tile([0.016, 0.012, 0.003], (n_buttons, 1))))
+        door.append(boxes([[0.25 * W, y_panel, zfront + panel_proud + 0.001]], [[0.09, 0.03, 0.002]]))  # display
     if handle_type == 0:
-        yh = H - panel_h - rng.uniform(0.03, 0.06)
+        yh = H_door - panel_h - rng.uniform(0.03, 0.06)
         r_c = min(0.5 * handle_off, 0.02)
         ang = np.linspace(0.0, 0.5 * np.pi, 6)
         x_arc = handle_len / 2 - r_c + r_c * np.sin(ang)
@@ -139,8 +209,8 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         zs = np.concatenate([[zfront - 0.002], z_arc[::-1][:-1], np.full(5, zfront + handle_off), z_arc[1:], [zfront - 0.002]])
         path = np.stack([xs, np.full(len(xs), yh), zs], -1)
         door.append(sweep_planar(path, (0, 1, 0), handle_r, handle_r, sections=10))
-    else:
-        yh = H - panel_h - 0.006
+    elif handle_type == 1:
+        yh = H_door - panel_h - 0.006
         door.append(boxes([[0.0, yh, zfront + 0.012]], [[handle_len, 0.012, 0.024]]))
         door.append(boxes([[0.0, yh - 0.012, zfront + 0.022]], [[handle_len, 0.02, 0.006]]))
     # inner liner and dispenser on the back of the door (they enter the tub opening when closed)
@@ -158,13 +228,14 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
         handle_length=handle_len, handle_radius=handle_r, handle_offset=handle_off, n_buttons=n_buttons,
         rack_rod_radius=rack_rod, lower_rack_height=lower_rack_h, upper_rack_height=upper_rack_h,
         upper_rack_frac=upper_frac, spray_arm_angle_lower=float(arm_angles[0]),
-        spray_arm_angle_upper=float(arm_angles[1]),
+        spray_arm_angle_upper=float(arm_angles[1]), worktop=has_top, worktop_thickness=top_t if has_top else 0.0,
+        worktop_overhang=top_ov if has_top else 0.0, racks=n_racks,
     )
     return build_object(
         "dishwasher", instance_id, [(body_part, T_body), (door_part, T_door)],
         joints=[dict(type="revolute", parent=0, child=1, pivot=(0.0, kick_h, zfront), axis=(1.0, 0.0, 0.0),
                      limits=LIMITS, rest=REST)],
-        params=params,
+        params=params, shape_family=family,
     )
 
 
@@ -176,6 +247,7 @@ SPEC = CategorySpec(
     symmetry=("none", "none"),
     distance_range_m=(1.5, 2.6),
     elevation_range_deg=(10.0, 55.0),
+    shape_families=FAMILIES,
     build=build,
     description="dishwasher: cabinet with racks + front door on a bottom revolute hinge (opens down to 90 degrees)",
 )

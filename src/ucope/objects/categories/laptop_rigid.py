@@ -6,10 +6,13 @@ from the hinge towards +y, opened by ``opening_deg`` (70-130 degrees from closed
 above 90 it leans back towards -z), with its screen facing +z (the user). Metres; the amodal box of
 the whole laptop is centred on the origin. Symmetry ``"none"``.
 
-Geometry (one mesh): a base slab with rounded corners (width 0.28-0.40 m, depth 0.19-0.27 m,
-thickness 12-22 mm), a grid of raised keys with a space bar, a thin touchpad plate in front of the
-keyboard, a hinge barrel along x, and the lid (thickness 4-9 mm, length 0.94-1.0 x depth) with a
-raised bezel frame around an inset screen on its inner face.
+Geometry (one mesh): a base slab with rounded corners (a wedge base: a trapezoid thick at the hinge,
+thin at the front, on two front feet), a grid of raised keys with a space bar, a thin touchpad plate in
+front of the keyboard, a hinge barrel along x, and the lid (length 0.94-1.0 x depth) with a raised bezel
+frame around an inset screen on its inner face.
+
+Shape families: those of the articulated ``laptop`` (ultrabook, mainstream, gaming, rugged; wedge held
+out), with the same width, depth, base and lid thickness ranges (:data:`ucope.objects.categories.laptop.RANGES`).
 """
 
 from __future__ import annotations
@@ -17,19 +20,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..articulation import ArticulatedObject
-from ..shapes import cylinder
+from ..shapes import boxes, cylinder, extrude, rounded_slab, transformed
 from . import CategorySpec
-from ._rigid_common import boxes, finish, rounded_slab, transformed, uniform
+from .helpers import rigid_object, uniform
+from .laptop import FAMILIES, draw_dimensions
 
 
-def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
-    W = uniform(rng, 0.28, 0.40)
-    Dp = uniform(rng, max(0.19, 0.6 * W), min(0.27, 0.78 * W))
-    tb = uniform(rng, 0.012, 0.022)
-    tl = uniform(rng, 0.004, 0.009)
+def build(rng: np.random.Generator, instance_id: str, family: str = "mainstream") -> ArticulatedObject:
+    """A random opened laptop of shape ``family``; see the module docstring for the frame."""
+    dims = draw_dimensions(rng, family)
+    W, Dp, tb, tl, corner = (dims[k] for k in ("width", "depth", "base", "lid", "corner"))
     lid_len = uniform(rng, 0.94, 1.0) * Dp
     theta_deg = uniform(rng, 70.0, 130.0)
-    corner = uniform(rng, 0.004, 0.015)
     kb_w = uniform(rng, 0.8, 0.9) * W
     kb_d = uniform(rng, 0.34, 0.42) * Dp
     kb_back = uniform(rng, 0.05, 0.12) * Dp  # keyboard's distance from the back edge
@@ -39,11 +41,17 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     key_fill = uniform(rng, 0.78, 0.88)
     tp_w = uniform(rng, 0.28, 0.42) * W
     tp_d = uniform(rng, 0.45, 0.75)  # fraction of the room in front of the keyboard
-    bez_side = uniform(rng, 0.005, 0.015)
-    bez_top = uniform(rng, 0.006, 0.015)
-    bez_chin = uniform(rng, 0.01, 0.025)
+    bez_side = dims["bezel"]
+    bez_top = bez_side + uniform(rng, 0.0, 0.006)
+    bez_chin = bez_side + uniform(rng, 0.005, 0.015)
 
-    meshes = [rounded_slab((W, tb, Dp), corner, axis="y", center=(0.0, tb / 2, 0.0))]
+    if family == "wedge":  # trapezoid cross-section in the y-z plane: the bottom rises towards the front, on two front feet
+        y_front = tb - dims["front"]
+        meshes = [extrude(np.array([[0.0, -Dp / 2], [y_front, Dp / 2], [tb, Dp / 2], [tb, -Dp / 2]]), W, plane="yz")]
+        fz = Dp / 2 - 0.02
+        meshes.append(boxes(np.array([[sx * (W / 2 - 0.03), y_front / 2 + 0.0005, fz] for sx in (-1, 1)]), [0.012, y_front + 0.001, 0.01]))
+    else:
+        meshes = [rounded_slab((W, tb, Dp), corner, axis="y", center=(0.0, tb / 2, 0.0))]
 
     # keys: an n_rows x n_cols grid, the front row's middle keys merged into a space bar
     px, pz = kb_w / n_cols, kb_d / n_rows
@@ -95,12 +103,12 @@ def build(rng: np.random.Generator, instance_id: str) -> ArticulatedObject:
     meshes += [transformed(m, R, pivot) for m in lid]
 
     params = dict(
-        width=W, depth=Dp, base_thickness=tb, lid_thickness=tl, lid_length=lid_len, opening_deg=theta_deg,
+        width=W, depth=Dp, base_thickness=tb, base_front_thickness=dims["front"], lid_thickness=tl, lid_length=lid_len, opening_deg=theta_deg,
         corner_radius=corner, keyboard_width=kb_w, keyboard_depth=kb_d, keyboard_back=kb_back, n_cols=n_cols,
         n_rows=n_rows, key_height=key_h, key_fill=key_fill, touchpad_width=tp_w, touchpad_depth=tp_dd,
         bezel_side=bez_side, bezel_top=bez_top, bezel_chin=bez_chin,
     )
-    return finish("laptop_rigid", instance_id, meshes, "none", params)
+    return rigid_object("laptop_rigid", instance_id, meshes, "none", params, family)
 
 
 SPEC = CategorySpec(
@@ -109,8 +117,9 @@ SPEC = CategorySpec(
     part_names=("body",),
     joint_types=(),
     symmetry=("none",),
-    distance_range_m=(0.6, 1.2),
+    distance_range_m=(0.6, 1.3),
     elevation_range_deg=(10.0, 60.0),
+    shape_families=FAMILIES,
     build=build,
     description="opened laptop as one rigid part (NOCS): base with keys and touchpad, lid at 70-130 deg",
 )
