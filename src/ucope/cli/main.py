@@ -45,7 +45,8 @@ def _generate_config(args: argparse.Namespace, **overrides):
 
     view = ViewConfig(noise=DepthNoise(enabled=not args.no_noise), floor=not args.no_floor, num_distractors=args.distractors)
     kw = dict(category=args.category, split=args.split, num=args.num, seed=args.seed, shard_size=args.shard_size,
-              views_per_instance=args.views_per_instance, max_points=args.max_points, images=args.images, view=view)
+              views_per_instance=args.views_per_instance, max_points=args.max_points, images=args.images, view=view,
+              scale=args.scale, adjacent_distractor=args.adjacent_distractor)
     kw.update(overrides)
     return GenerateConfig(**kw)
 
@@ -168,7 +169,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         epoch_size=args.epoch_size, val_samples=args.val_samples, workers=args.workers, log_every=args.log_every,
         val_every=args.val_every, checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
         threads=args.threads, device=args.device, resume=args.resume, init_from=args.init, progress=not args.quiet,
-        allow_changed_settings=args.allow_changed_settings, augment=args.augment,
+        allow_changed_settings=args.allow_changed_settings, augment=args.augment, new_priors=args.new_priors,
     )
     card = train(tc)
     if card:
@@ -394,6 +395,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--no-noise", action="store_true", help="clean depth (no sensor noise model)")
     g.add_argument("--no-floor", action="store_true", help="no floor plane")
     g.add_argument("--distractors", type=int, default=2, help="maximum number of distractor objects per view")
+    g.add_argument("--adjacent-distractor", type=float, default=0.5, metavar="P",
+                   help="chance that a view gets a distractor right next to the object in the image (default 0.5)")
+    g.add_argument("--scale", type=float, default=None, help="build every instance at this uniform scale (the camera distance "
+                                                              "scales too): the same shapes at another size")
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(func=cmd_generate)
 
@@ -448,6 +453,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--init", default=None, metavar="MODEL",
                    help="fine-tune: start from this model's weights (a shipped model name such as laptop, a run folder "
                         "or a model .json) with a fresh optimiser; its network and category statistics are kept")
+    t.add_argument("--new-priors", action="store_true",
+                   help="with --init: measure the category priors on this training data instead of keeping the initial model's")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
 

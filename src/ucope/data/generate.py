@@ -8,6 +8,7 @@ same files.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import sys
@@ -49,6 +50,10 @@ class GenerateConfig:
         adjacent_distractor: probability that a view gets one more distractor object standing right next
             to the object in the image (:func:`ucope.data.scenes.add_adjacent_distractor`), so that a
             bleeding mask meets another object, not only the floor.
+        scale: build every instance at this uniform scale factor instead of its split's own (1 for
+            train, val and test, the drawn factor for ood): the same shapes at another size (the scale
+            curve of docs/results.md). The camera distance range scales with each instance's factor, so
+            an object fills the image as much at any size.
     """
 
     category: str
@@ -63,6 +68,7 @@ class GenerateConfig:
     view: ViewConfig = field(default_factory=ViewConfig)
     background: bool = True
     adjacent_distractor: float = 0.5
+    scale: float | None = None
 
     def validate(self) -> None:
         get_category(self.category)  # UnknownCategoryError lists the valid names
@@ -78,6 +84,8 @@ class GenerateConfig:
             raise InputError(f"seed must be an integer >= 0, got {self.seed!r}")
         if not isinstance(self.normal_k, (int, np.integer)) or self.normal_k < 3:
             raise InputError(f"normal_k must be an integer >= 3, got {self.normal_k!r}")
+        if self.scale is not None and not (np.isfinite(self.scale) and self.scale > 0):
+            raise InputError(f"scale must be a positive number, got {self.scale!r}")
         if not 0.0 <= float(self.adjacent_distractor) <= 1.0:
             raise InputError(f"adjacent_distractor must be a probability in [0, 1], got {self.adjacent_distractor!r}")
 
@@ -92,6 +100,7 @@ class GenerateConfig:
             "shard_size": int(self.shard_size), "views_per_instance": int(self.views_per_instance),
             "max_points": int(self.max_points), "normal_k": int(self.normal_k), "images": bool(self.images),
             "view": self.view.to_dict(), "background": bool(self.background), "adjacent_distractor": float(self.adjacent_distractor),
+            "scale": None if self.scale is None else float(self.scale),
             "generator_version": GENERATOR_VERSION,
             "conventions_version": CONVENTIONS_VERSION, "format_version": FORMAT_VERSION,
         }
@@ -106,7 +115,7 @@ class GenerateConfig:
             "family": spec.family, "num_parts": spec.num_parts, "part_names": list(spec.part_names),
             "joint_types": list(spec.joint_types), "joint_type_codes": list(JOINT_TYPES),
             "symmetry": list(spec.symmetry), "num_shards": self.num_shards, "ucope_version": __version__,
-            "structure": make_instance(self.category, self.split, 0, self.seed).structure(),
+            "structure": make_instance(self.category, self.split, 0, self.seed, scale=self.scale).structure(),
         }
 
 
@@ -121,11 +130,11 @@ _INSTANCE_CACHE: dict = {}
 
 
 def _instance(cfg: GenerateConfig, inst: int):
-    key = (cfg.category, cfg.split, cfg.seed, inst)
+    key = (cfg.category, cfg.split, cfg.seed, inst, cfg.scale)
     obj = _INSTANCE_CACHE.get(key)
     if obj is None:
         _INSTANCE_CACHE.clear()  # views of one instance are consecutive: keep only the latest
-        obj = _INSTANCE_CACHE[key] = make_instance(cfg.category, cfg.split, inst, cfg.seed)
+        obj = _INSTANCE_CACHE[key] = make_instance(cfg.category, cfg.split, inst, cfg.seed, scale=cfg.scale)
     return obj
 
 
@@ -133,6 +142,10 @@ def make_sample(cfg: GenerateConfig, index: int, return_view: bool = False):
     """Build sample ``index`` of the data set described by ``cfg`` (deterministic)."""
     spec = get_category(cfg.category)
     obj = _instance(cfg, index // cfg.views_per_instance)
+    if obj.scale != 1.0:  # a scaled object: the camera keeps its distance relative to the object's size
+        spec = dataclasses.replace(spec, distance_range_m=tuple(d * obj.scale for d in spec.distance_range_m))
+        if cfg.view.distance_range_m is not None:
+            cfg = dataclasses.replace(cfg, view=dataclasses.replace(cfg.view, distance_range_m=tuple(d * obj.scale for d in cfg.view.distance_range_m)))
     rng = sample_rng(cfg.category, cfg.split, cfg.seed, index)
     for _ in range(50):
         view = render_view(obj, cfg.view, rng, spec)

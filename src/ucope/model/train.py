@@ -94,6 +94,9 @@ class TrainConfig:
             model's; ``model_overrides`` may only change the training settings among its fields
             (``pairs_per_part``, ``lambda_*``, ``seg_weighting``). The optimiser and the learning-rate
             schedule start afresh. Ignored on ``resume`` (the checkpoint holds the weights).
+        new_priors: with ``init_from``, measure the category priors (vote ranges, sizes, templates...) on
+            this run's training data instead of keeping the initial model's (the data spans other sizes);
+            the network then learns its outputs relative to the new statistics.
         augment: the chance that a training item is corrupted (occlusion, floor and neighbour points,
             outliers, noise, fewer points: :mod:`ucope.data.augment`); 0 = off. The model needs the
             background class (``model_overrides={"background_class": True}``, set automatically for a new
@@ -129,6 +132,7 @@ class TrainConfig:
     init_from: str | None = None
     allow_changed_settings: bool = False
     augment: float = 0.0
+    new_priors: bool = False
     progress: bool = True
 
     def validate(self) -> None:
@@ -451,7 +455,11 @@ class _Run:
                 raise TrainingError(f"the checkpoint in {self.out} is a {cfg.category!r} model, not {tc.category!r}")
             return cfg, None
         if tc.init_from is not None:
-            return _init_config(tc)
+            cfg, init = _init_config(tc)
+            if tc.new_priors:
+                cfg = dataclasses.replace(cfg, priors=measure_priors(self.samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
+                                                                     template_samples=100 if tc.on_the_fly else 400))
+            return cfg, init
         priors = measure_priors(self.samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
                                 template_samples=100 if tc.on_the_fly else 400)
         overrides = dict(tc.model_overrides)
