@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.ucope-installed
 
-.PHONY: setup demo test test-all bench clean
+.PHONY: setup demo lint test test-all bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,16 +19,23 @@ setup: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/ucope demo --out demo_out
 
-test: $(STAMP)
+LINTED := src tests scripts benchmarks examples
+
+lint: $(STAMP)
+	$(BIN)/ruff check $(LINTED)
+	$(BIN)/ruff format --check $(LINTED)
+
+test: lint
 	$(BIN)/python -m pytest -q
 
-test-all: $(STAMP)
+test-all: lint
 	$(BIN)/python -m pytest -q -m ""
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_generate.py
 	$(BIN)/python benchmarks/bench_train.py
 	$(BIN)/python benchmarks/bench_predict.py
+	$(BIN)/python benchmarks/bench_components.py
 
 clean:
 	rm -rf demo_out .pytest_cache build src/*.egg-info

@@ -33,14 +33,25 @@ def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool | No
         r = est.predict(s["points"], s["normals"] if normals else None)
         rows.append(r.timings_ms)
     med = {k: statistics.median(r[k] for r in rows) for k in STAGES}
-    return {"model": model, "category": est.category, "num_parts": est.cfg.num_parts, "num_points": est.cfg.num_points,
-            "pairs": pairs, "normals_given": normals, "refine": est.refine, "median_ms": med,
-            "max_total_ms": max(r["total"] for r in rows), "repeats": repeats}
+    return {
+        "model": model,
+        "category": est.category,
+        "num_parts": est.cfg.num_parts,
+        "num_points": est.cfg.num_points,
+        "pairs": pairs,
+        "normals_given": normals,
+        "refine": est.refine,
+        "median_ms": med,
+        "max_total_ms": max(r["total"] for r in rows),
+        "repeats": repeats,
+    }
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", nargs="+", default=["laptop", "mug"], help="shipped model names or run folders (default laptop mug)")
+    ap.add_argument(
+        "--model", nargs="+", default=["laptop", "mug"], help="shipped model names or run folders (default laptop mug)"
+    )
     ap.add_argument("--pairs", type=int, default=20000)
     ap.add_argument("--repeats", type=int, default=20)
     ap.add_argument("--threads", type=int, default=2)
@@ -53,10 +64,25 @@ def main() -> None:
             r = bench(m, args.pairs, args.repeats, normals)
             results.append(r)
             t = r["median_ms"]
-            print(f"{r['category']:10s} K={r['num_parts']} pairs={args.pairs} normals {'given    ' if normals else 'estimated'}: "
-                  + "  ".join(f"{k} {t[k]:6.1f}" for k in STAGES) + " ms (median)", flush=True)
-    args.out.write_text(json.dumps({"threads": args.threads, "torch": torch.__version__, "platform": platform.platform(),
-                                    "target_total_ms": 50.0, "results": results}, indent=2) + "\n")
+            print(
+                f"{r['category']:10s} K={r['num_parts']} pairs={args.pairs} normals {'given    ' if normals else 'estimated'}: "
+                + "  ".join(f"{k} {t[k]:6.1f}" for k in STAGES)
+                + " ms (median)",
+                flush=True,
+            )
+    args.out.write_text(
+        json.dumps(
+            {
+                "threads": args.threads,
+                "torch": torch.__version__,
+                "platform": platform.platform(),
+                "target_total_ms": 50.0,
+                "results": results,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     print(f"wrote {args.out}")
 
 

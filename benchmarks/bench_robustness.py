@@ -1,7 +1,8 @@
 """Robustness benchmark (issue 13, part 1): the shipped models on corrupted unseen test views.
 
     python benchmarks/bench_robustness.py                          # all 11 models, 40 views, every kind and level
-    python benchmarks/bench_robustness.py --models mug laptop --kinds noise points --num 5 --out /tmp/r.json --page /tmp/r.md --figure /tmp/r.png
+    python benchmarks/bench_robustness.py --models mug laptop --kinds noise points --num 5 \
+        --out /tmp/r.json --page /tmp/r.md --figure /tmp/r.png
     python benchmarks/bench_robustness.py --page-only              # rebuild docs/robustness.md and the figure from the JSON
 
 For every model, ``--num`` unseen test views of its category are rendered with clean depth (one view per
@@ -36,10 +37,10 @@ import numpy as np
 from ucope import __version__
 from ucope.data.corrupt import KINDS, CorruptionContext, background_pool, corrupt
 from ucope.data.generate import GenerateConfig, make_sample
+from ucope.data.scenes import add_adjacent_distractor
 from ucope.eval.evaluate import mug_handle_visible
 from ucope.eval.metrics import rotation_error_deg, translation_error_m
 from ucope.objects.categories import get_category
-from ucope.data.scenes import add_adjacent_distractor
 from ucope.render.noise import DepthNoise
 from ucope.render.views import ViewConfig
 
@@ -90,8 +91,12 @@ def score(result, sample: dict, src: np.ndarray, category: str, symmetry: tuple[
     handle = None
     if category == "mug":
         need = max(1, round(MUG_HANDLE_POINTS * len(kept) / n))
-        handle = bool(mug_handle_visible({"cam_from_part": sample["cam_from_part"], "size_m": sample["size_m"],
-                                          "points": sample["points"][kept]}, min_points=need))
+        handle = bool(
+            mug_handle_visible(
+                {"cam_from_part": sample["cam_from_part"], "size_m": sample["size_m"], "points": sample["points"][kept]},
+                min_points=need,
+            )
+        )
         if not handle:
             sym = ["y"]
     rot, trans, rel, scores, change = [], [], [], [], []
@@ -103,10 +108,18 @@ def score(result, sample: dict, src: np.ndarray, category: str, symmetry: tuple[
         scores.append(float(part.score))
         if clean is not None:
             change.append(rotation_error_deg(T[:3, :3], np.asarray(clean.parts[k].cam_from_part)[:3, :3], sym[k]))
-    ok = all(r < ROT_DEG and t < TRANS_REL for r, t in zip(rot, rel))
-    ok_cm = all(r < ROT_DEG and t < TRANS_M for r, t in zip(rot, trans))
-    return {"rot_deg": rot, "trans_m": trans, "trans_norm": rel, "score": scores, "success": ok, "success_10cm": ok_cm,
-            "rot_change_deg": change if clean is not None else None, "handle_visible": handle}
+    ok = all(r < ROT_DEG and t < TRANS_REL for r, t in zip(rot, rel, strict=False))
+    ok_cm = all(r < ROT_DEG and t < TRANS_M for r, t in zip(rot, trans, strict=False))
+    return {
+        "rot_deg": rot,
+        "trans_m": trans,
+        "trans_norm": rel,
+        "score": scores,
+        "success": ok,
+        "success_10cm": ok_cm,
+        "rot_change_deg": change if clean is not None else None,
+        "handle_visible": handle,
+    }
 
 
 def summarize(records: list[dict], K: int) -> dict:
@@ -123,10 +136,12 @@ def summarize(records: list[dict], K: int) -> dict:
         "median_trans_m": [med("trans_m", k) for k in range(K)],
         "median_trans_norm": [med("trans_norm", k) for k in range(K)],
         "median_rot_change_deg": [med("rot_change_deg", k) for k in range(K)],
-        "max_rot_change_deg": [max((r["rot_change_deg"][k] for r in ran if r.get("rot_change_deg")), default=None)
-                               for k in range(K)],
-        "part_success": [sum(1 for r in ran if r["rot_deg"][k] < ROT_DEG and r["trans_norm"][k] < TRANS_REL) / n
-                         for k in range(K)],
+        "max_rot_change_deg": [
+            max((r["rot_change_deg"][k] for r in ran if r.get("rot_change_deg")), default=None) for k in range(K)
+        ],
+        "part_success": [
+            sum(1 for r in ran if r["rot_deg"][k] < ROT_DEG and r["trans_norm"][k] < TRANS_REL) / n for k in range(K)
+        ],
         "success": sum(1 for r in ran if r["success"]) / n,
         "success_10deg10cm": sum(1 for r in ran if r["success_10cm"]) / n,
         "num_errors": n - len(ran),
@@ -165,21 +180,32 @@ def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir:
     est = ucope.Estimator.load(str(model_dir / f"{name}.json") if model_dir is not None else name, num_pairs=pairs)
     view_cfg = ViewConfig(noise=DepthNoise(enabled=False))
     # the benchmark adds its own adjacent distractor and background pool: the generator's are off
-    gen = GenerateConfig(category, split="test", num=num, seed=seed, views_per_instance=1, view=view_cfg, background=False,
-                         adjacent_distractor=0.0)
+    gen = GenerateConfig(
+        category, split="test", num=num, seed=seed, views_per_instance=1, view=view_cfg, background=False, adjacent_distractor=0.0
+    )
     t_start = time.perf_counter()
     todo = [("clean", "clean", None)] + level_specs(kinds)
     records = {s: [] for _, s, _ in todo}
     views, times = [], []
     for i in range(num):
         sample, view = make_sample(gen, i, return_view=True)
-        view2, dinfo = add_adjacent_distractor(view, sample["size_m"], sample["points"], view_cfg.camera, stream(seed, category, i, "adjacent-distractor"))
+        view2, dinfo = add_adjacent_distractor(
+            view, sample["size_m"], sample["points"], view_cfg.camera, stream(seed, category, i, "adjacent-distractor")
+        )
         pool = background_pool(view2, view_cfg.camera, cloud_points=len(sample["points"]))
         ctx = CorruptionContext(sample["cam_from_part"], sample["size_m"], pool, depth_noise=DepthNoise())
         clutter_keys = {tuple(p) for p in pool.points[pool.clutter].astype(np.float32).tolist()}
-        views.append({"index": i, "instance_id": sample["instance_id"], "num_points": len(sample["points"]),
-                      "pool_points": len(pool.rank), "pool_clutter_points": int(pool.clutter.sum()),
-                      "pixels_per_point": round(pool.pixels_per_point, 4), "distractor": dinfo})
+        views.append(
+            {
+                "index": i,
+                "instance_id": sample["instance_id"],
+                "num_points": len(sample["points"]),
+                "pool_points": len(pool.rank),
+                "pool_clutter_points": int(pool.clutter.sum()),
+                "pixels_per_point": round(pool.pixels_per_point, 4),
+                "distractor": dinfo,
+            }
+        )
         n = len(sample["points"])
         clean = None
         for _, s, _ in todo:
@@ -209,26 +235,48 @@ def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir:
     levels = {}
     for kind, s, lv in todo:
         recs = records[s]
-        levels[s] = {"kind": kind, "level": lv, **summarize(recs, K),
-                     "views": {key: [r.get(key) for r in recs] for key in dict.fromkeys(k for r in recs for k in r)
-                               if key != "handle_visible"}}
+        levels[s] = {
+            "kind": kind,
+            "level": lv,
+            **summarize(recs, K),
+            "views": {
+                key: [r.get(key) for r in recs] for key in dict.fromkeys(k for r in recs for k in r) if key != "handle_visible"
+            },
+        }
         if category == "mug":
             levels[s]["views"]["handle_visible"] = [r.get("handle_visible") for r in recs]
-    return {"category": category, "part_names": list(spec.part_names), "part_symmetry": list(spec.symmetry),
-            "views": views, "levels": levels, "time_s": round(time.perf_counter() - t_start, 1),
-            "predict_ms_median": round(1e3 * float(np.median(times)), 1) if times else None, "num_predictions": len(times)}
+    return {
+        "category": category,
+        "part_names": list(spec.part_names),
+        "part_symmetry": list(spec.symmetry),
+        "views": views,
+        "levels": levels,
+        "time_s": round(time.perf_counter() - t_start, 1),
+        "predict_ms_median": round(1e3 * float(np.median(times)), 1) if times else None,
+        "num_predictions": len(times),
+    }
 
 
 def settings(args) -> dict:
-    return {"num": args.num, "seed": args.seed, "split": "test", "views_per_instance": 1, "num_pairs": args.pairs,
-            "depth": "clean (DepthNoise(enabled=False))", "normals": "estimated by predict",
-            "adjacent_distractor": True, "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its GT box diagonal",
-            "success_10deg10cm": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_M:g} cm"}
+    return {
+        "num": args.num,
+        "seed": args.seed,
+        "split": "test",
+        "views_per_instance": 1,
+        "num_pairs": args.pairs,
+        "depth": "clean (DepthNoise(enabled=False))",
+        "normals": "estimated by predict",
+        "adjacent_distractor": True,
+        "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its GT box diagonal",
+        "success_10deg10cm": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_M:g} cm",
+    }
 
 
 def kinds_meta() -> dict:
-    return {k.name: {"levels": list(k.levels), "identity": k.identity, "unit": k.unit, "description": k.description}
-            for k in KINDS.values()}
+    return {
+        k.name: {"levels": list(k.levels), "identity": k.identity, "unit": k.unit, "description": k.description}
+        for k in KINDS.values()
+    }
 
 
 # --------------------------------------------------------------------------------------------------
@@ -273,23 +321,42 @@ def build_page(res: dict, figure_rel: str) -> str:
     st = res["settings"]
     L = [BEGIN, ""]
     runs = res.get("runs", [])
-    L.append(f"Measured with `{st['num']}` unseen test views per model (seed {st['seed']}, one view per instance, clean depth), "
-             f"{st['num_pairs']} point pairs, normals estimated by `predict`; ucope {res.get('ucope_version')}.")
+    L.append(
+        f"Measured with `{st['num']}` unseen test views per model (seed {st['seed']}, one view per instance, clean depth), "
+        f"{st['num_pairs']} point pairs, normals estimated by `predict`; ucope {res.get('ucope_version')}."
+    )
     for r in runs:
-        L.append(f"- run of {r['date']}: {len(r['models'])} model(s) ({', '.join(r['models'])}), kinds {', '.join(r['kinds'])}: "
-                 f"{r['wall_s'] / 60:.1f} min wall time on {r['hardware']['cpu']} ({r['hardware']['cpu_count']} CPUs, "
-                 f"shared), {r['hardware']['torch_threads']} torch thread(s), {r['hardware']['platform']}, torch {r['hardware']['torch']}.")
+        L.append(
+            f"- run of {r['date']}: {len(r['models'])} model(s) ({', '.join(r['models'])}), kinds {', '.join(r['kinds'])}: "
+            f"{r['wall_s'] / 60:.1f} min wall time on {r['hardware']['cpu']} ({r['hardware']['cpu_count']} CPUs, "
+            f"shared), {r['hardware']['torch_threads']} torch thread(s), {r['hardware']['platform']}, torch "
+            f"{r['hardware']['torch']}."
+        )
     for m in models:
         md = res["models"][m]
-        L.append(f"  - {m}: {md['time_s'] / 60:.1f} min for {md['num_predictions']} predictions, median `predict` "
-                 f"{md['predict_ms_median']} ms.")
-    touch = [(m, sum(1 for v in res["models"][m]["views"] if v["distractor"]["touching"]), len(res["models"][m]["views"]))
-             for m in models]
-    L.append("- views whose adjacent distractor touches the object's silhouette: " + ", ".join(f"{m} {a}/{b}" for m, a, b in touch) + ".")
+        L.append(
+            f"  - {m}: {md['time_s'] / 60:.1f} min for {md['num_predictions']} predictions, median `predict` "
+            f"{md['predict_ms_median']} ms."
+        )
+    touch = [
+        (m, sum(1 for v in res["models"][m]["views"] if v["distractor"]["touching"]), len(res["models"][m]["views"]))
+        for m in models
+    ]
+    L.append(
+        "- views whose adjacent distractor touches the object's silhouette: "
+        + ", ".join(f"{m} {a}/{b}" for m, a, b in touch)
+        + "."
+    )
     L += ["", f"![success fraction against the corruption level, one line per model]({figure_rel})", ""]
-    L += ["### Summary", "",
-          ("Success (%, every part < 10 deg and < 10 % of its box diagonal) and median rotation error per part (deg) "
-           "on the clean views and at one level of five corruptions."), ""]
+    L += [
+        "### Summary",
+        "",
+        (
+            "Success (%, every part < 10 deg and < 10 % of its box diagonal) and median rotation error per part (deg) "
+            "on the clean views and at one level of five corruptions."
+        ),
+        "",
+    ]
     heads = ["clean"] + [f"{s.split('=')[0]} {level_label(s.split('=')[0], float(s.split('=')[1]))}" for s in SUMMARY_SPECS]
     L.append("| model | " + " | ".join(f"{h}: success" for h in heads) + " | " + " | ".join(f"{h}: rot" for h in heads) + " |")
     L.append("|---" * (1 + 2 * len(heads)) + "|")
@@ -299,13 +366,24 @@ def build_page(res: dict, figure_rel: str) -> str:
         succ = ["" if s not in lv else f"{100 * lv[s]['success']:.0f}" for s in specs]
         rots = ["" if s not in lv else _rots(lv[s]["median_rot_deg"]) for s in specs]
         L.append(f"| {m} | " + " | ".join(succ) + " | " + " | ".join(rots) + " |")
-    L += ["", "### Per corruption", "",
-          ("Cells: median rotation error per part (deg, parts in the model's order, `/`-separated) · success % "
-           "(10 deg and 10 % of the box diagonal) (in brackets: the issue's 10 deg and 10 cm). Medians are over the "
-           "views where `predict` ran; a view where it raised counts as a failure and is flagged in the cell."), ""]
+    L += [
+        "",
+        "### Per corruption",
+        "",
+        (
+            "Cells: median rotation error per part (deg, parts in the model's order, `/`-separated) · success % "
+            "(10 deg and 10 % of the box diagonal) (in brackets: the issue's 10 deg and 10 cm). Medians are over the "
+            "views where `predict` ran; a view where it raised counts as a failure and is flagged in the cell."
+        ),
+        "",
+    ]
     for kind in KINDS:
-        if not any(spec_of(kind, lv) in res["models"][m]["levels"] for m in models for lv in KINDS[kind].levels
-                   if lv != KINDS[kind].identity):
+        if not any(
+            spec_of(kind, lv) in res["models"][m]["levels"]
+            for m in models
+            for lv in KINDS[kind].levels
+            if lv != KINDS[kind].identity
+        ):
             continue
         k = KINDS[kind]
         L += [f"#### {kind}: {k.description}", ""]
@@ -324,19 +402,33 @@ def build_page(res: dict, figure_rel: str) -> str:
                         parts.append((sum(v["views"]["added_clutter"]), sum(v["views"]["num_added"])))
             if parts:
                 a, b = sum(p[0] for p in parts), sum(p[1] for p in parts)
-                L += ["", f"Of the points {kind} added over all models and levels, {100 * a / max(b, 1):.1f} % are distractor-object points."]
+                L += [
+                    "",
+                    f"Of the points {kind} added over all models and levels, {100 * a / max(b, 1):.1f} % are distractor-object "
+                    "points.",
+                ]
         L.append("")
     if any("shuffle=1" in res["models"][m]["levels"] for m in models):
-        L += ["#### shuffle: how far the rotation moves", "",
-              "Rotation change per part between the prediction on the shuffled cloud and on the clean one (deg): median / max over the views.", "",
-              "| model | median | max |", "|---|---|---|"]
+        L += [
+            "#### shuffle: how far the rotation moves",
+            "",
+            "Rotation change per part between the prediction on the shuffled cloud and on the clean one (deg): median / max "
+            "over the views.",
+            "",
+            "| model | median | max |",
+            "|---|---|---|",
+        ]
         for m in models:
             v = res["models"][m]["levels"].get("shuffle=1")
             if v:
                 L.append(f"| {m} | {_rots(v['median_rot_change_deg'])} | {_rots(v['max_rot_change_deg'])} |")
         L.append("")
-    errs = [(m, s, v["num_errors"], next(e for e in v["views"]["error"] if e)) for m in models
-            for s, v in res["models"][m]["levels"].items() if v["num_errors"]]
+    errs = [
+        (m, s, v["num_errors"], next(e for e in v["views"]["error"] if e))
+        for m in models
+        for s, v in res["models"][m]["levels"].items()
+        if v["num_errors"]
+    ]
     L += ["### Where `predict` raised", ""]
     if errs:
         L += ["| model | level | views | first error |", "|---|---|---|---|"]
@@ -354,20 +446,24 @@ def draw_figure(res: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     models = [m for m in MODELS if m in res["models"]] + [m for m in res["models"] if m not in MODELS]
-    kinds = [k for k in KINDS if any(spec_of(k, lv) in res["models"][m]["levels"] for m in models
-                                     for lv in KINDS[k].levels if lv != KINDS[k].identity)]
+    kinds = [
+        k
+        for k in KINDS
+        if any(spec_of(k, lv) in res["models"][m]["levels"] for m in models for lv in KINDS[k].levels if lv != KINDS[k].identity)
+    ]
     ncol = 4
     nrow = -(-len(kinds) // ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.3 * ncol, 2.7 * nrow + 0.9), squeeze=False, sharey=True)
     colours = [*plt.get_cmap("tab10").colors, (0.0, 0.0, 0.0)]
-    for ax, kind in zip(axes.flat, kinds):
+    for ax, kind in zip(axes.flat, kinds, strict=False):
         cols = columns(kind)
         for j, m in enumerate(models):
             lv = res["models"][m]["levels"]
             y = [100 * lv[s]["success"] if s in lv else np.nan for _, s in cols]
             rigid = len(res["models"][m]["part_names"]) == 1
-            ax.plot(range(len(cols)), y, marker="o", ms=3, lw=1.3, color=colours[j % len(colours)],
-                    ls="--" if rigid else "-", label=m)
+            ax.plot(
+                range(len(cols)), y, marker="o", ms=3, lw=1.3, color=colours[j % len(colours)], ls="--" if rigid else "-", label=m
+            )
         ax.set_xticks(range(len(cols)))
         ax.set_xticklabels(["clean" if s == "clean" else h for h, s in cols], fontsize=7, rotation=30)
         ax.set_title(f"{kind}", fontsize=10)
@@ -375,12 +471,15 @@ def draw_figure(res: dict, path: Path) -> None:
         ax.grid(alpha=0.3)
     for ax in axes[:, 0]:
         ax.set_ylabel("success (%)")
-    for ax in list(axes.flat)[len(kinds):]:
+    for ax in list(axes.flat)[len(kinds) :]:
         ax.axis("off")
     handles, labels = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(models), 6), fontsize=8, frameon=False)
-    fig.suptitle(f"Success (every part < 10 deg, < 10 % of its box diagonal) on {res['settings']['num']} test views; "
-                 "solid: articulated, dashed: rigid", fontsize=10)
+    fig.suptitle(
+        f"Success (every part < 10 deg, < 10 % of its box diagonal) on {res['settings']['num']} test views; "
+        "solid: articulated, dashed: rigid",
+        fontsize=10,
+    )
     fig.tight_layout(rect=(0, 0.09 if len(models) > 6 else 0.05, 1, 0.97))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -394,7 +493,7 @@ def write_page(res: dict, page: Path, figure: Path) -> None:
         text = page.read_text()
         if BEGIN not in text or END not in text:
             raise SystemExit(f"{page} lacks the markers {BEGIN!r} / {END!r} between which the results go")
-        text = text[: text.index(BEGIN)] + block + text[text.index(END) + len(END):]
+        text = text[: text.index(BEGIN)] + block + text[text.index(END) + len(END) :]
     else:
         text = block + "\n"
     page.write_text(text)
@@ -415,8 +514,14 @@ def hardware(threads: int) -> dict:
                 break
     except OSError:
         pass
-    return {"cpu": cpu, "cpu_count": os.cpu_count(), "torch_threads": threads, "platform": platform.platform(),
-            "python": platform.python_version(), "torch": torch.__version__}
+    return {
+        "cpu": cpu,
+        "cpu_count": os.cpu_count(),
+        "torch_threads": threads,
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "torch": torch.__version__,
+    }
 
 
 def main(argv=None) -> None:
@@ -427,8 +532,12 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=0, help="seed of the test views and of the corruptions")
     ap.add_argument("--pairs", type=int, default=20000, help="point pairs per prediction (default 20000)")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
-    ap.add_argument("--model-dir", type=Path, default=None,
-                    help="load <name>.json from this folder instead of the shipped models (to compare model sets)")
+    ap.add_argument(
+        "--model-dir",
+        type=Path,
+        default=None,
+        help="load <name>.json from this folder instead of the shipped models (to compare model sets)",
+    )
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results_robustness.json")
     ap.add_argument("--page", type=Path, default=ROOT / "docs" / "robustness.md")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "images" / "robustness.png")
@@ -466,11 +575,21 @@ def main(argv=None) -> None:
             new["levels"] = {**res["models"][m]["levels"], **new["levels"]}
         res["models"][m] = new
         clean = new["levels"]["clean"]
-        log(f"{m}: done in {new['time_s']:.0f} s; clean success {100 * clean['success']:.0f} %, median rot {_rots(clean['median_rot_deg'])}")
+        log(
+            f"{m}: done in {new['time_s']:.0f} s; clean success {100 * clean['success']:.0f} %, median rot "
+            f"{_rots(clean['median_rot_deg'])}"
+        )
         res["ucope_version"] = __version__
         args.out.write_text(json.dumps(res, separators=(",", ":")) + "\n")  # after every model: a killed run keeps what it did
-    res["runs"].append({"date": datetime.date.today().isoformat(), "models": list(args.models), "kinds": list(args.kinds),
-                        "wall_s": round(time.perf_counter() - t0, 1), "hardware": hardware(args.threads)})
+    res["runs"].append(
+        {
+            "date": datetime.date.today().isoformat(),
+            "models": list(args.models),
+            "kinds": list(args.kinds),
+            "wall_s": round(time.perf_counter() - t0, 1),
+            "hardware": hardware(args.threads),
+        }
+    )
     args.out.write_text(json.dumps(res, separators=(",", ":")) + "\n")
     log(f"wrote {args.out} ({(time.perf_counter() - t0) / 60:.1f} min)")
     if not args.no_page:

@@ -23,9 +23,9 @@ import torch
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.model.batch import TrainingItems, collate_items
 from ucope.model.config import ModelConfig
+from ucope.model.factory import build_model
 from ucope.objects.categories import make_instance
 from ucope.priors import measure_priors
-from ucope.model.factory import build_model
 
 TARGET_S = {"slim": 0.7, "full": 1.4}
 
@@ -60,11 +60,16 @@ def bench(category: str, size: str, steps: int, samples: list[dict]) -> dict:
             if i >= 2:
                 fwd.append(time.perf_counter() - t0)
     return {
-        "category": category, "size": size, "num_points": cfg.num_points,
+        "category": category,
+        "size": size,
+        "num_points": cfg.num_points,
         "parameters": sum(p.numel() for p in net.parameters()),
-        "step_s_median": statistics.median(times), "step_s_min": min(times), "items_s_median": statistics.median(prep),
+        "step_s_median": statistics.median(times),
+        "step_s_min": min(times),
+        "items_s_median": statistics.median(prep),
         "forward_1_ms_median": 1000 * statistics.median(fwd),
-        "target_step_s": TARGET_S[size], "meets_target": statistics.median(times) <= TARGET_S[size],
+        "target_step_s": TARGET_S[size],
+        "meets_target": statistics.median(times) <= TARGET_S[size],
     }
 
 
@@ -82,11 +87,19 @@ def main() -> None:
         for size in ("slim", "full"):
             r = bench(category, size, args.steps, samples)
             rows.append(r)
-            print(f"{category:7s} {size:4s} ({r['num_points']} pts, {r['parameters'] / 1e6:.2f} M params): "
-                  f"step (batch 8) {r['step_s_median']:.3f} s [target {r['target_step_s']} s] + items {r['items_s_median']:.3f} s, "
-                  f"forward (1 object) {r['forward_1_ms_median']:.1f} ms", flush=True)
-    result = {"threads": args.threads, "torch": torch.__version__, "platform": platform.platform(),
-              "processor": platform.processor(), "results": rows}
+            print(
+                f"{category:7s} {size:4s} ({r['num_points']} pts, {r['parameters'] / 1e6:.2f} M params): "
+                f"step (batch 8) {r['step_s_median']:.3f} s [target {r['target_step_s']} s] + items {r['items_s_median']:.3f} s, "
+                f"forward (1 object) {r['forward_1_ms_median']:.1f} ms",
+                flush=True,
+            )
+    result = {
+        "threads": args.threads,
+        "torch": torch.__version__,
+        "platform": platform.platform(),
+        "processor": platform.processor(),
+        "results": rows,
+    }
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.out}")
 

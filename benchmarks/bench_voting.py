@@ -39,28 +39,43 @@ def run(pairs: int, outliers: float, trials: int, noise_frac: float, noise_deg: 
     for _ in range(trials):
         T, size = random_part(rng)
         V = 1.1 * 0.5 * float(np.linalg.norm(size))
-        a, b, n, h, V = synthetic_heads(rng, T, size, size, pairs, outlier_frac=outliers, V=V,
-                                        noise=(noise_frac * V, np.radians(noise_deg)))
-        vote_part(a[:64], b[:64], n[:64], *(h[k][:64] for k in HEADS), vote_range_m=V, mean_size_m=size, options=OPTIONS)  # warm caches
+        a, b, n, h, V = synthetic_heads(
+            rng, T, size, size, pairs, outlier_frac=outliers, V=V, noise=(noise_frac * V, np.radians(noise_deg))
+        )
+        vote_part(
+            a[:64], b[:64], n[:64], *(h[k][:64] for k in HEADS), vote_range_m=V, mean_size_m=size, options=OPTIONS
+        )  # warm caches
         t0 = time.perf_counter()
         r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, options=OPTIONS)
         dt = time.perf_counter() - t0
         R = r.cam_from_part[:3, :3]
         e = torch.nn.functional.normalize(a - b, dim=-1)
         alpha = torch.arccos((e.double() @ torch.tensor(T[:3, 1])).clamp(-1, 1)).float()
-        u_cppf, _ = vote_axis(e, alpha, options=AxisOptions(method="fibonacci", num_directions=480, refine_iters=0, max_coarse_pairs=pairs))
+        u_cppf, _ = vote_axis(
+            e, alpha, options=AxisOptions(method="fibonacci", num_directions=480, refine_iters=0, max_coarse_pairs=pairs)
+        )
         u_cppf = u_cppf.double().numpy()
-        rows.append({
-            "centre_mm": 1000 * float(np.linalg.norm(r.cam_from_part[:3, 3] - T[:3, 3])),
-            "centre_cells": float(np.linalg.norm(r.cam_from_part[:3, 3] - T[:3, 3]) / (V / 20)),
-            "up_deg": angle_deg(R[:, 1], T[:3, 1]), "right_deg": angle_deg(R[:, 0], T[:3, 0]),
-            "up_deg_cppf_480": min(angle_deg(u_cppf, T[:3, 1]), angle_deg(-u_cppf, T[:3, 1])),
-            "size_rel": float(np.abs(r.size_m / size - 1).max()), "ms": 1000 * dt,
-        })
+        rows.append(
+            {
+                "centre_mm": 1000 * float(np.linalg.norm(r.cam_from_part[:3, 3] - T[:3, 3])),
+                "centre_cells": float(np.linalg.norm(r.cam_from_part[:3, 3] - T[:3, 3]) / (V / 20)),
+                "up_deg": angle_deg(R[:, 1], T[:3, 1]),
+                "right_deg": angle_deg(R[:, 0], T[:3, 0]),
+                "up_deg_cppf_480": min(angle_deg(u_cppf, T[:3, 1]), angle_deg(-u_cppf, T[:3, 1])),
+                "size_rel": float(np.abs(r.size_m / size - 1).max()),
+                "ms": 1000 * dt,
+            }
+        )
     keys = rows[0].keys()
-    return {"pairs": pairs, "outlier_fraction": outliers, "noise_fraction_of_V": noise_frac, "noise_deg": noise_deg, "trials": trials,
-            "median": {k: statistics.median(r[k] for r in rows) for k in keys},
-            "max": {k: max(r[k] for r in rows) for k in keys}}
+    return {
+        "pairs": pairs,
+        "outlier_fraction": outliers,
+        "noise_fraction_of_V": noise_frac,
+        "noise_deg": noise_deg,
+        "trials": trials,
+        "median": {k: statistics.median(r[k] for r in rows) for k in keys},
+        "max": {k: max(r[k] for r in rows) for k in keys},
+    }
 
 
 def main() -> None:
@@ -77,12 +92,21 @@ def main() -> None:
         r = run(pairs, outliers, args.trials, nf, nd)
         results.append(r)
         m, x = r["median"], r["max"]
-        print(f"{pairs:6d} pairs, {int(100 * outliers):2d}% outliers, noise {nf:.2f} V / {nd:.0f} deg: centre {m['centre_mm']:.2f} mm ({m['centre_cells']:.3f} cells, max "
-                  f"{x['centre_cells']:.3f}), up {m['up_deg']:.3f} deg (max {x['up_deg']:.3f}; CPPF-style 480-direction sphere "
-                  f"{m['up_deg_cppf_480']:.2f}, max {x['up_deg_cppf_480']:.2f}), right {m['right_deg']:.3f} deg, size {100 * m['size_rel']:.2f}%, "
-                  f"{m['ms']:.1f} ms per part", flush=True)
-    args.out.write_text(json.dumps({"threads": args.threads, "torch": torch.__version__, "platform": platform.platform(),
-                                    "results": results}, indent=2) + "\n")
+        print(
+            f"{pairs:6d} pairs, {int(100 * outliers):2d}% outliers, noise {nf:.2f} V / {nd:.0f} deg: centre "
+            f"{m['centre_mm']:.2f} mm ({m['centre_cells']:.3f} cells, max "
+            f"{x['centre_cells']:.3f}), up {m['up_deg']:.3f} deg (max {x['up_deg']:.3f}; CPPF-style 480-direction sphere "
+            f"{m['up_deg_cppf_480']:.2f}, max {x['up_deg_cppf_480']:.2f}), right {m['right_deg']:.3f} deg, size "
+            f"{100 * m['size_rel']:.2f}%, "
+            f"{m['ms']:.1f} ms per part",
+            flush=True,
+        )
+    args.out.write_text(
+        json.dumps(
+            {"threads": args.threads, "torch": torch.__version__, "platform": platform.platform(), "results": results}, indent=2
+        )
+        + "\n"
+    )
     print(f"wrote {args.out}")
 
 

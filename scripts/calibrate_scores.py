@@ -89,13 +89,25 @@ def calibrate(model: str, num: int, seed: int, pairs: int) -> dict:
     obj_scores = np.array([part_scores[a : a + n].min() for a, n, _ in obj_rows])
     obj_ok = np.array([o for *_, o in obj_rows], dtype=bool)
     cand = np.unique(obj_scores)
-    j = [(np.mean(obj_scores[obj_ok] >= t) - np.mean(obj_scores[~obj_ok] >= t)) if obj_ok.any() and (~obj_ok).any() else 0.0 for t in cand]
+    j = [
+        (np.mean(obj_scores[obj_ok] >= t) - np.mean(obj_scores[~obj_ok] >= t)) if obj_ok.any() and (~obj_ok).any() else 0.0
+        for t in cand
+    ]
     threshold = float(cand[int(np.argmax(j))]) if len(cand) else 0.5
-    info = {"split": "val", "seed": seed, "views": num, "pairs": pairs, "clean_fraction": 0.25, "kinds": sorted(KINDS),
-            "object_success_rate": float(obj_ok.mean()), "part_success_rate": float(y.mean()),
-            "auroc_object_fit": auroc(obj_scores, obj_ok), "auroc_part_fit": auroc(part_scores, y.astype(bool)),
-            "auroc_object_vote_score": auroc(np.array([F[a : a + n, 0].min() for a, n, _ in obj_rows]), obj_ok),
-            "seconds": round(time.perf_counter() - t0, 1)}
+    info = {
+        "split": "val",
+        "seed": seed,
+        "views": num,
+        "pairs": pairs,
+        "clean_fraction": 0.25,
+        "kinds": sorted(KINDS),
+        "object_success_rate": float(obj_ok.mean()),
+        "part_success_rate": float(y.mean()),
+        "auroc_object_fit": auroc(obj_scores, obj_ok),
+        "auroc_part_fit": auroc(part_scores, y.astype(bool)),
+        "auroc_object_vote_score": auroc(np.array([F[a : a + n, 0].min() for a, n, _ in obj_rows]), obj_ok),
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
     return dataclasses.replace(cal, threshold=threshold, info=info).to_dict()
 
 
@@ -115,8 +127,11 @@ def main(argv=None) -> None:
         meta.setdefault("info", {})["calibration"] = cal
         atomic_write_json(path, meta)
         i = cal["info"]
-        print(f"{m}: {i['views']} views, object success {i['object_success_rate']:.2f}, AUROC object {i['auroc_object_fit']:.3f} "
-              f"(vote score alone {i['auroc_object_vote_score']:.3f}), threshold {cal['threshold']:.3f}, {i['seconds']:.0f} s -> {path}")
+        print(
+            f"{m}: {i['views']} views, object success {i['object_success_rate']:.2f}, AUROC object {i['auroc_object_fit']:.3f} "
+            f"(vote score alone {i['auroc_object_vote_score']:.3f}), threshold {cal['threshold']:.3f}, {i['seconds']:.0f} s -> "
+            f"{path}"
+        )
         print(json.dumps({k: cal[k] for k in ("coef", "part_bias", "threshold")}))
 
 

@@ -92,7 +92,11 @@ def main() -> None:
         if not args.galleries_only:
             obj = make_instance(name, "train", 0)
             state = mid_state(obj)
-            label = f"{name} ({obj.shape_family}): state {np.round(state, 2).tolist()}" if state is not None else f"{name} ({obj.shape_family}, rigid)"
+            label = (
+                f"{name} ({obj.shape_family}): state {np.round(state, 2).tolist()}"
+                if state is not None
+                else f"{name} ({obj.shape_family}, rigid)"
+            )
             print(plot_object(obj, out_dir / f"conventions_{name}.png", state=state, title=label))
         print(family_gallery(name, args.per_family, out_dir / f"families_{name}.png"))
 

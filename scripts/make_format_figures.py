@@ -27,7 +27,7 @@ frame = render_frame(
 predict_frame(frame["depth_mm"], K, frame["instance"], {1: "mug", 2: "laptop"})  # warm-up: the timings shown are steady ones
 fr = predict_frame(frame["depth_mm"], K, frame["instance"], {1: "mug", 2: "laptop"})
 objects = []
-for o, truth in zip(fr.objects, frame["objects"]):
+for o, truth in zip(fr.objects, frame["objects"], strict=False):
     gt = {
         "cam_from_part": truth["cam_from_part"],
         "size_m": truth["size_m"],

@@ -64,13 +64,17 @@ def part_row(rep: dict, label: str, stat: str = "mean") -> str:
     """A Table-2 row of means (``stat="median"``: medians; the 10deg10cm fraction is not a statistic, "-")."""
     p = rep["parts"]
     frac = cells(p["fraction"]["10deg10cm"], "{:.0f}", 100) if stat == "mean" else "-"
-    return (f"| {label} | {cells(p['rotation_deg'][stat], '{:.1f}')} | {cells(p['translation_m'][stat], '{:.3f}')} "
-            f"| {cells(p['iou'][stat], '{:.1f}', 100)} | {frac} | {rep['time_ms'][stat]['total'] / 1000:.3f} |")
+    return (
+        f"| {label} | {cells(p['rotation_deg'][stat], '{:.1f}')} | {cells(p['translation_m'][stat], '{:.3f}')} "
+        f"| {cells(p['iou'][stat], '{:.1f}', 100)} | {frac} | {rep['time_ms'][stat]['total'] / 1000:.3f} |"
+    )
 
 
 def state_cells(j: dict, stat: str) -> str:
-    return ", ".join("-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m")
-                     for v, u in zip(j["state_error"][stat], j["state_unit"]))
+    return ", ".join(
+        "-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m")
+        for v, u in zip(j["state_error"][stat], j["state_unit"], strict=False)
+    )
 
 
 def refresh_rigid(reports: Path) -> list[str]:
@@ -88,8 +92,10 @@ def refresh_rigid(reports: Path) -> list[str]:
         if not rep.get("map_records"):
             continue
         rep.update(rigid_figures(rep["map_records"], rep["part_symmetry"][0]))
-        rep["refreshed"] = ("parts, map and map_nocs recomputed from map_records by scripts/make_results.py --refresh-rigid "
-                            "with the metric code of ucope " + _version() + "; the predictions are those of the run above")
+        rep["refreshed"] = (
+            "parts, map and map_nocs recomputed from map_records by scripts/make_results.py --refresh-rigid "
+            "with the metric code of ucope " + _version() + "; the predictions are those of the run above"
+        )
         tmp = path.with_name(f".{path.name}.tmp")
         tmp.write_text(json.dumps(rep, indent=1, sort_keys=True) + "\n")
         tmp.replace(path)
@@ -110,18 +116,25 @@ def translation_against_paper(reports: Path) -> str:
         rep = load(reports, cat)
         if rep is None:
             continue
-        for name, ours, paper in zip(rep["part_names"], rep["parts"]["translation_m"]["mean"], PAPER_TABLE2[cat][1]):
+        for name, ours, paper in zip(
+            rep["part_names"], rep["parts"]["translation_m"]["mean"], PAPER_TABLE2[cat][1], strict=False
+        ):
             total += 1
             if ours is not None and ours > paper:
                 higher.append(f"{cat} {name} ({ours:.3f} m against {paper:.3f} m)")
     if not total:
         return ""
     lower = total - len(higher)
-    return (f"Translation against the paper's Table 2, in metres: our mean error is lower for {lower} of {total} parts"
-            + (f" and higher for: {' and '.join([', '.join(higher[:-1]), higher[-1]] if len(higher) > 1 else higher)}"
-               if higher else "")
-            + ". The units may differ as well: the paper's metric section says its translation errors are normalised, "
-            "its table prints metres; ours are metres (the reports also hold them divided by each part's box diagonal).")
+    return (
+        f"Translation against the paper's Table 2, in metres: our mean error is lower for {lower} of {total} parts"
+        + (
+            f" and higher for: {' and '.join([', '.join(higher[:-1]), higher[-1]] if len(higher) > 1 else higher)}"
+            if higher
+            else ""
+        )
+        + ". The units may differ as well: the paper's metric section says its translation errors are normalised, "
+        "its table prints metres; ours are metres (the reports also hold them divided by each part's box diagonal)."
+    )
 
 
 def pool_maps(reports: list, key: str) -> dict:
@@ -147,8 +160,9 @@ def pool_maps(reports: list, key: str) -> dict:
     names, classes = pooled["metrics"], pooled["classes"]
     pooled["mean"] = {n: mean_of(pooled, classes, "ap", n) for n in names}
     pooled["mean_fraction"] = {n: mean_of(pooled, classes, "fraction", n) for n in names}
-    pooled["mean_tie_range"] = {n: [sum(pooled["tie_range"][c][n][k] for c in classes) / len(classes) for k in (0, 1)]
-                                for n in names}
+    pooled["mean_tie_range"] = {
+        n: [sum(pooled["tie_range"][c][n][k] for c in classes) / len(classes) for k in (0, 1)] for n in names
+    }
     return pooled
 
 
@@ -162,8 +176,11 @@ def map_cells(ap: dict, fraction: dict, names: list) -> str:
 
 def map_rows(pooled: dict, names: list, mean_label: str = "**mean (ours)**") -> list:
     rows = [f"| {c} | " + map_cells(pooled["ap"][c], pooled["fraction"][c], names) + " |" for c in pooled["classes"]]
-    rows.append(f"| {mean_label} | " + " | ".join(f"**{100 * pooled['mean'][n]:.1f}** ({100 * pooled['mean_fraction'][n]:.1f})"
-                                                 for n in names) + " |")
+    rows.append(
+        f"| {mean_label} | "
+        + " | ".join(f"**{100 * pooled['mean'][n]:.1f}** ({100 * pooled['mean_fraction'][n]:.1f})" for n in names)
+        + " |"
+    )
     return rows
 
 
@@ -176,8 +193,10 @@ def training_info(card: dict) -> dict:
     """What the page says about a model's training, from its model card. A fine-tuned model (``ucope
     train --init``) also lists the stages it was made in, oldest first (``stages``: steps and minutes
     each), followed through the run folders its card names (else the chain the card records)."""
-    info = {k: card.get(k) for k in ("steps", "batch_size", "train_time_s", "world_size", "model_size", "head", "hardware",
-                                     "stopped_early")}
+    info = {
+        k: card.get(k)
+        for k in ("steps", "batch_size", "train_time_s", "world_size", "model_size", "head", "hardware", "stopped_early")
+    }
     stages = [{"steps": card.get("steps"), "train_time_s": card.get("train_time_s")}]
     init = card.get("initialised_from")
     seen: set = set()
@@ -232,8 +251,10 @@ def training_line(rep: dict | None) -> str:
         steps = " + ".join(str(s["steps"]) for s in stages)
         minutes = sum(float(s["train_time_s"] or 0.0) for s in stages) / 60
         n = len(stages) - 1
-        return (f"{steps} steps of batch {c['batch_size']} (a training, then {n} fine-tuning{'s' if n > 1 else ''} "
-                f"with `--init` on fresh views) in {minutes:.1f} min on {where}{early}")
+        return (
+            f"{steps} steps of batch {c['batch_size']} (a training, then {n} fine-tuning{'s' if n > 1 else ''} "
+            f"with `--init` on fresh views) in {minutes:.1f} min on {where}{early}"
+        )
     return f"{c['steps']} steps of batch {c['batch_size']} in {c['train_time_s'] / 60:.1f} min on {where}{early}"
 
 
@@ -249,8 +270,11 @@ def main() -> int:
     ap.add_argument("--save-reports", type=Path, default=None, help="copy the reports here (slim) and build from the copies")
     ap.add_argument("--out", type=Path, default=root / "docs" / "results.md")
     ap.add_argument("--notes", type=Path, default=Path(__file__).with_name("results_notes.md"))
-    ap.add_argument("--refresh-rigid", action="store_true",
-                    help="recompute the rigid reports' per-part summary and mAPs from their per-view records, in place")
+    ap.add_argument(
+        "--refresh-rigid",
+        action="store_true",
+        help="recompute the rigid reports' per-part summary and mAPs from their per-view records, in place",
+    )
     ap.add_argument("--bench", type=Path, default=root / "benchmarks", help="folder of the benchmarks' results_*.json")
     args = ap.parse_args()
     R = args.reports
@@ -259,19 +283,25 @@ def main() -> int:
     if args.save_reports is not None:
         save_reports(args.reports, args.save_reports, args.runs)
         R = args.save_reports
-    out = ["# Results", "",
-           "Generated by `python scripts/make_results.py` from the `ucope eval` reports in [reports/](reports/); "
-           "`scripts/reproduce_models.sh` retrains every model, re-evaluates it and rebuilds both from nothing. "
-           "Every figure below is read from those reports; the paper's rows are quoted from its Tables 1-3 for comparison "
-           "(its numbers are on ArtImage / CAMERA25 with a GPU; ours are on our procedural data sets, see "
-           "[conventions.md](conventions.md), with CPU-trained models, so the comparison is of shape, not a like-for-like benchmark).",
-           "", "Conventions: errors over the test split (unseen instances), means in the rows so labelled and medians in the "
-           "rows marked *median* (a few flipped views pull a mean far from the typical view); rotation in degrees (y-symmetric "
-           "parts, and mugs whose handle is not visible: angle between the y axes), translation in metres (box centre distance), "
-           "3D IoU of the amodal boxes in percent computed **exactly** for oriented boxes (not what NOCS's evaluation code "
-           "computes, see [metrics.md](metrics.md)); `10deg10cm` is the percentage of test views with rotation <= 10 deg and "
-           "translation <= 10 cm; time is the wall time of `Estimator.predict` per object, in seconds. The ablation and "
-           "refinement tables show means.", ""]
+    out = [
+        "# Results",
+        "",
+        "Generated by `python scripts/make_results.py` from the `ucope eval` reports in [reports/](reports/); "
+        "`scripts/reproduce_models.sh` retrains every model, re-evaluates it and rebuilds both from nothing. "
+        "Every figure below is read from those reports; the paper's rows are quoted from its Tables 1-3 for comparison "
+        "(its numbers are on ArtImage / CAMERA25 with a GPU; ours are on our procedural data sets, see "
+        "[conventions.md](conventions.md), with CPU-trained models, so the comparison is of shape, not a like-for-like "
+        "benchmark).",
+        "",
+        "Conventions: errors over the test split (unseen instances), means in the rows so labelled and medians in the "
+        "rows marked *median* (a few flipped views pull a mean far from the typical view); rotation in degrees (y-symmetric "
+        "parts, and mugs whose handle is not visible: angle between the y axes), translation in metres (box centre distance), "
+        "3D IoU of the amodal boxes in percent computed **exactly** for oriented boxes (not what NOCS's evaluation code "
+        "computes, see [metrics.md](metrics.md)); `10deg10cm` is the percentage of test views with rotation <= 10 deg and "
+        "translation <= 10 cm; time is the wall time of `Estimator.predict` per object, in seconds. The ablation and "
+        "refinement tables show means.",
+        "",
+    ]
 
     # ------------------------------------------------------------------------- Table 2 (articulated)
     out += ["## Articulated objects (Table 2 shape)", ""]
@@ -280,10 +310,17 @@ def main() -> int:
         if rep is None:
             continue
         base = load(R, f"{cat}_regression")
-        out += [f"### {cat}", "", f"Parts: {', '.join(rep['part_names'])}; {rep['data']['num_samples']} test views. "
-                f"U-COPE trained with {training_line(rep) or 'see its model card'}.", "",
-                "| method | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
-                "|---|---|---|---|---|---|", part_row(rep, "U-COPE (ours)"), part_row(rep, "U-COPE (ours), *median*", "median")]
+        out += [
+            f"### {cat}",
+            "",
+            f"Parts: {', '.join(rep['part_names'])}; {rep['data']['num_samples']} test views. "
+            f"U-COPE trained with {training_line(rep) or 'see its model card'}.",
+            "",
+            "| method | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
+            "|---|---|---|---|---|---|",
+            part_row(rep, "U-COPE (ours)"),
+            part_row(rep, "U-COPE (ours), *median*", "median"),
+        ]
         if base is not None:
             out.append(part_row(base, "direct regression (baseline, same encoder / data / steps)"))
             out.append(part_row(base, "direct regression, *median*", "median"))
@@ -299,23 +336,33 @@ def main() -> int:
                     st = j["state_error"][stat][i]
                     st_s = "-" if st is None else (f"{st:.1f} deg" if unit == "deg" else f"{st:.3f} m")
                     piv = j["pivot_m"][stat][i]
-                    out.append(f"| {i} ({j['joint_type'][i]}) | {label} | {j['axis_deg'][stat][i]:.1f} | "
-                               f"{'-' if piv is None else f'{piv:.3f}'} | {st_s} |")
+                    out.append(
+                        f"| {i} ({j['joint_type'][i]}) | {label} | {j['axis_deg'][stat][i]:.1f} | "
+                        f"{'-' if piv is None else f'{piv:.3f}'} | {st_s} |"
+                    )
         seg = rep.get("segmentation")
         if seg:
-            out += ["", f"Segmentation (U-COPE): per-part IoU {cells(seg['iou'], '{:.1f}', 100)} %, accuracy {100 * seg['accuracy']:.1f} %."]
+            out += [
+                "",
+                f"Segmentation (U-COPE): per-part IoU {cells(seg['iou'], '{:.1f}', 100)} %, accuracy "
+                f"{100 * seg['accuracy']:.1f} %.",
+            ]
         out += ["", f"Command: `{command(rep)}`" + (f"; baseline: `{command(base)}`" if base else ""), ""]
 
     sentence = translation_against_paper(R)
     if sentence:
         out += [sentence, ""]
-    rerun = sorted(p.stem for p in R.glob("*.json")
-                   if (rep := load(R, p.stem) or {}).get("category") in ARTICULATED and rep.get("refreshed"))
+    rerun = sorted(
+        p.stem for p in R.glob("*.json") if (rep := load(R, p.stem) or {}).get("category") in ARTICULATED and rep.get("refreshed")
+    )
     if rerun:
-        out += [f"The joint state errors of the reports {', '.join(rerun)} were recomputed after the metric changed (a state is "
-                "now compared about the axis sign that the axis error chose): their commands were re-run on the regenerated test "
-                "splits, "
-                "reproduced every other figure, and only the state errors were replaced (the reports' `refreshed` field).", ""]
+        out += [
+            f"The joint state errors of the reports {', '.join(rerun)} were recomputed after the metric changed (a state is "
+            "now compared about the axis sign that the axis error chose): their commands were re-run on the regenerated test "
+            "splits, "
+            "reproduced every other figure, and only the state errors were replaced (the reports' `refreshed` field).",
+            "",
+        ]
 
     # ---------------------------------------------------------------------------- Table 1 (rigid)
     rigid = {c: load(R, c) for c in RIGID}
@@ -324,57 +371,98 @@ def main() -> int:
         base = {c: b for c in RIGID if (b := load(R, f"{c}_regression")) is not None}
         exact, nocs = pool_maps(list(rigid.values()), "map"), pool_maps(list(rigid.values()), "map_nocs")
         names = exact["metrics"]
-        out += ["## Rigid objects (Table 1 shape): NOCS-style mAP", "",
-                f"Per class and mean over {len(exact['classes'])} classes, one object per view, so the AP of a class is the "
-                "precision-recall area of its views ranked by our part score. Bottle, bowl, can and mugs whose handle is not "
-                "visible are evaluated as symmetric about y (NOCS rules, anchors.md section 3). Each cell: the AP, and in "
-                "brackets the **score-free fraction**: the percentage of views whose pose passes the threshold, i.e. the recall "
-                "a "
-                "perfect ranking would reach, which does not depend on the scores. Two protocols ([metrics.md](metrics.md)): "
-                "ours, with the exact IoU and tied scores counted as one operating point (no figure depends on the order of the "
-                "records), and the NOCS reference code's, as it runs, which the paper's Table 1 was computed with: its IoU is "
-                "not "
-                "an IoU (a max taken over the wrong array axis) and its pose columns count only the views matched at that IoU > "
-                "0.1. Only the second is "
-                "comparable with the paper's row; neither is a like-for-like benchmark (different data).", "",
-                "### Our protocol (exact IoU)", "",
-                "| class | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+        out += [
+            "## Rigid objects (Table 1 shape): NOCS-style mAP",
+            "",
+            f"Per class and mean over {len(exact['classes'])} classes, one object per view, so the AP of a class is the "
+            "precision-recall area of its views ranked by our part score. Bottle, bowl, can and mugs whose handle is not "
+            "visible are evaluated as symmetric about y (NOCS rules, anchors.md section 3). Each cell: the AP, and in "
+            "brackets the **score-free fraction**: the percentage of views whose pose passes the threshold, i.e. the recall "
+            "a "
+            "perfect ranking would reach, which does not depend on the scores. Two protocols ([metrics.md](metrics.md)): "
+            "ours, with the exact IoU and tied scores counted as one operating point (no figure depends on the order of the "
+            "records), and the NOCS reference code's, as it runs, which the paper's Table 1 was computed with: its IoU is "
+            "not "
+            "an IoU (a max taken over the wrong array axis) and its pose columns count only the views matched at that IoU > "
+            "0.1. Only the second is "
+            "comparable with the paper's row; neither is a like-for-like benchmark (different data).",
+            "",
+            "### Our protocol (exact IoU)",
+            "",
+            "| class | " + " | ".join(names) + " |",
+            "|---|" + "---|" * len(names),
+        ]
         out += map_rows(exact, names)
         if base:
             bex = pool_maps(list(base.values()), "map")
-            sub = {"mean": {n: mean_of(exact, bex["classes"], "ap", n) for n in names},
-                   "mean_fraction": {n: mean_of(exact, bex["classes"], "fraction", n) for n in names}}
-            out.append(f"| direct regression ({', '.join(bex['classes'])}) | "
-                       + map_cells(bex["mean"], bex["mean_fraction"], names) + " |")
+            sub = {
+                "mean": {n: mean_of(exact, bex["classes"], "ap", n) for n in names},
+                "mean_fraction": {n: mean_of(exact, bex["classes"], "fraction", n) for n in names},
+            }
+            out.append(
+                f"| direct regression ({', '.join(bex['classes'])}) | "
+                + map_cells(bex["mean"], bex["mean_fraction"], names)
+                + " |"
+            )
             out.append("| U-COPE (ours) on the same classes | " + map_cells(sub["mean"], sub["mean_fraction"], names) + " |")
-        out += ["", "### NOCS's reference protocol (the paper's)", "",
-                "| class | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+        out += [
+            "",
+            "### NOCS's reference protocol (the paper's)",
+            "",
+            "| class | " + " | ".join(names) + " |",
+            "|---|" + "---|" * len(names),
+        ]
         out += map_rows(nocs, names, "**mean (ours, NOCS protocol)**")
         out.append("| U-COPE, paper (CAMERA25) | " + " | ".join(f"{PAPER_TABLE1[n]:.1f}" for n in names) + " |")
         ties, bex = [], pool_maps(list(base.values()), "map") if base else None
         if base:
             bno = pool_maps(list(base.values()), "map_nocs")
-            out.append(f"| direct regression ({', '.join(bno['classes'])}) | "
-                       + map_cells(bno["mean"], bno["mean_fraction"], names) + " |")
-            ties = [f"{n} {100 * bno['mean_tie_range'][n][0]:.1f}-{100 * bno['mean_tie_range'][n][1]:.1f}" for n in names
-                    if bno["mean_tie_range"][n][1] - bno["mean_tie_range"][n][0] > 5e-4]
+            out.append(
+                f"| direct regression ({', '.join(bno['classes'])}) | "
+                + map_cells(bno["mean"], bno["mean_fraction"], names)
+                + " |"
+            )
+            ties = [
+                f"{n} {100 * bno['mean_tie_range'][n][0]:.1f}-{100 * bno['mean_tie_range'][n][1]:.1f}"
+                for n in names
+                if bno["mean_tie_range"][n][1] - bno["mean_tie_range"][n][0] > 5e-4
+            ]
         tied = sum(v for m in rigid.values() for v in m["map_nocs"].get("num_tied", {}).values())
         spread = max(hi - lo for lo, hi in nocs["mean_tie_range"].values())
-        out += ["", "Under the NOCS protocol, tied scores are ranked in reverse record order, so an AP with ties depends on the "
-                "order of the records"
-                + (f" ({tied} of our {sum(exact['num_pred'].values())} predictions share their score with another; "
-                   f"over all their orders the means above move by at most {100 * spread:.2f} points)" if tied else "") + "."
-                + (" The direct-regression baseline gives every view the score 1.0, so its NOCS row is one of many: over all "
-                   f"orders of its records it spans {', '.join(ties)}. Under our protocol a tie is one operating point, which "
-                   "gives the lowest "
-                   "AP over the orders (a ranking that orders nothing earns nothing for its order: "
-                   + ", ".join(f"{n} {100 * bex['mean'][n]:.1f} of {100 * bex['mean_tie_range'][n][0]:.1f}-"
-                               f"{100 * bex['mean_tie_range'][n][1]:.1f}" for n in names
-                               if bex["mean_tie_range"][n][1] - bex["mean_tie_range"][n][0] > 5e-4)
-                   + "), and its fractions say how good its poses are." if ties else ""), ""]
-        out += ["Per-category errors (means, then medians):", "",
-                "| category | method | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
-                "|---|---|---|---|---|---|---|"]
+        out += [
+            "",
+            "Under the NOCS protocol, tied scores are ranked in reverse record order, so an AP with ties depends on the "
+            "order of the records"
+            + (
+                f" ({tied} of our {sum(exact['num_pred'].values())} predictions share their score with another; "
+                f"over all their orders the means above move by at most {100 * spread:.2f} points)"
+                if tied
+                else ""
+            )
+            + "."
+            + (
+                " The direct-regression baseline gives every view the score 1.0, so its NOCS row is one of many: over all "
+                f"orders of its records it spans {', '.join(ties)}. Under our protocol a tie is one operating point, which "
+                "gives the lowest "
+                "AP over the orders (a ranking that orders nothing earns nothing for its order: "
+                + ", ".join(
+                    f"{n} {100 * bex['mean'][n]:.1f} of {100 * bex['mean_tie_range'][n][0]:.1f}-"
+                    f"{100 * bex['mean_tie_range'][n][1]:.1f}"
+                    for n in names
+                    if bex["mean_tie_range"][n][1] - bex["mean_tie_range"][n][0] > 5e-4
+                )
+                + "), and its fractions say how good its poses are."
+                if ties
+                else ""
+            ),
+            "",
+        ]
+        out += [
+            "Per-category errors (means, then medians):",
+            "",
+            "| category | method | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for c, r in rigid.items():
             out.append(part_row(r, f"{c} | U-COPE (ours)"))
             out.append(part_row(r, f"{c} | U-COPE (ours), *median*", "median"))
@@ -384,19 +472,26 @@ def main() -> int:
         out += ["", "Commands: " + "; ".join(f"`{command(r)}`" for r in rigid.values()), ""]
         refreshed = [c for c in list(rigid) + [f"{c}_regression" for c in base] if (load(R, c) or {}).get("refreshed")]
         if refreshed:
-            out += [f"The figures of {', '.join(refreshed)} were recomputed from the per-view records their reports store, "
-                    "after the metrics changed (the reports' `refreshed` field); the predictions and times are those of the "
-                    "commands.", ""]
+            out += [
+                f"The figures of {', '.join(refreshed)} were recomputed from the per-view records their reports store, "
+                "after the metrics changed (the reports' `refreshed` field); the predictions and times are those of the "
+                "commands.",
+                "",
+            ]
         lines = [training_line(r) for r in rigid.values()]
         if any(lines):
-            out += ["Training: " + "; ".join(f"{c}: {line}" for c, line in zip(rigid, lines) if line) + ".", ""]
+            out += ["Training: " + "; ".join(f"{c}: {line}" for c, line in zip(rigid, lines, strict=False) if line) + ".", ""]
 
     # ----------------------------------------------------------------------------- Table 3 (ablation)
     abl = [(n, load(R, f"eyeglasses_pairs{n}") if n != 20000 else load(R, "eyeglasses")) for n in (5000, 10000, 20000, 40000)]
     off = load(R, "eyeglasses_no_awareness")
     if any(r is not None for _, r in abl) or off is not None:
-        out += ["## Ablation on eyeglasses (Table 3 shape)", "",
-                "| setting | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |", "|---|---|---|---|---|---|"]
+        out += [
+            "## Ablation on eyeglasses (Table 3 shape)",
+            "",
+            "| setting | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
+            "|---|---|---|---|---|---|",
+        ]
         for n, r in abl:
             if r is not None:
                 out.append(part_row(r, f"{n:,} pairs (ours)"))
@@ -415,29 +510,44 @@ def main() -> int:
     pairs = [(c, a, b) for c, a, b in pairs if a is not None and b is not None]
     if pairs:
         on_by_default = [c for c, _, _ in pairs if (load(R, c) or {}).get("settings", {}).get("refine")]
-        out += ["## The kinematic refinement (`--refine` / `--no-refine`)", "",
-                "Part rotations, joint axes and joint states made mutually consistent after the voting "
-                "([voting.md](voting.md)). Same models and test views, refinement off / on. A model is packaged "
-                "with it on by default where it lowers the rotation errors, keeps every part's 10deg10cm fraction and "
-                "costs no part more than one point of 3D IoU (`scripts/package_models.py`): "
-                + (", ".join(on_by_default) if on_by_default else "none") + ". The tables above use each model's default.", "",
-                "| category | refine | rotation error (deg) | translation error (m) | 3D IoU (%) | joint axis error (deg) | joint state error |",
-                "|---|---|---|---|---|---|---|"]
+        out += [
+            "## The kinematic refinement (`--refine` / `--no-refine`)",
+            "",
+            "Part rotations, joint axes and joint states made mutually consistent after the voting "
+            "([voting.md](voting.md)). Same models and test views, refinement off / on. A model is packaged "
+            "with it on by default where it lowers the rotation errors, keeps every part's 10deg10cm fraction and "
+            "costs no part more than one point of 3D IoU (`scripts/package_models.py`): "
+            + (", ".join(on_by_default) if on_by_default else "none")
+            + ". The tables above use each model's default.",
+            "",
+            "| category | refine | rotation error (deg) | translation error (m) | 3D IoU (%) | joint axis error (deg) | joint "
+            "state error |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for c, a, b in pairs:
             for flag, r in (("off", a), ("on", b)):
                 p, j = r["parts"], r["joints"]
-                st = ", ".join("-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m")
-                               for v, u in zip(j["state_error"]["mean"], j["state_unit"]))
-                out.append(f"| {c} | {flag} | {cells(p['rotation_deg']['mean'], '{:.1f}')} | {cells(p['translation_m']['mean'], '{:.3f}')} "
-                           f"| {cells(p['iou']['mean'], '{:.1f}', 100)} | {cells(j['axis_deg']['mean'], '{:.1f}')} | {st} |")
+                st = ", ".join(
+                    "-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m")
+                    for v, u in zip(j["state_error"]["mean"], j["state_unit"], strict=False)
+                )
+                out.append(
+                    f"| {c} | {flag} | {cells(p['rotation_deg']['mean'], '{:.1f}')} | "
+                    f"{cells(p['translation_m']['mean'], '{:.3f}')} "
+                    f"| {cells(p['iou']['mean'], '{:.1f}', 100)} | {cells(j['axis_deg']['mean'], '{:.1f}')} | {st} |"
+                )
         out.append("")
 
     # ----------------------------------------------------------------------------- training curves
     curves = [c for c in ("laptop", "mug") if (root / "docs" / "images" / f"training_{c}.png").is_file()]
     if curves:
-        out += ["## Training curves", "",
-                "Training (thin) and held-out validation (markers) losses and errors of the shipped laptop and mug models, "
-                "drawn by `python scripts/plot_training.py RUN --out PNG` from the runs' `metrics.jsonl`:", ""]
+        out += [
+            "## Training curves",
+            "",
+            "Training (thin) and held-out validation (markers) losses and errors of the shipped laptop and mug models, "
+            "drawn by `python scripts/plot_training.py RUN --out PNG` from the runs' `metrics.jsonl`:",
+            "",
+        ]
         out += [f"![{c} training](images/training_{c}.png)" for c in curves] + [""]
 
     # --------------------------------------------------------------------------------------- speed
@@ -446,22 +556,38 @@ def main() -> int:
         out += ["## Speed", ""]
     if bp.is_file():
         b = json.loads(bp.read_text())
-        out += [f"`python benchmarks/bench_predict.py` ({b['threads']} CPU threads, torch {b['torch']}; median over "
-                f"{b['results'][0]['repeats']} unseen test views; target {b['target_total_ms']:.0f} ms in total):", "",
-                "| model | K | pairs | normals | preprocess | encoder | pair encoder | voting | total (ms) |", "|---|---|---|---|---|---|---|---|---|"]
+        out += [
+            f"`python benchmarks/bench_predict.py` ({b['threads']} CPU threads, torch {b['torch']}; median over "
+            f"{b['results'][0]['repeats']} unseen test views; target {b['target_total_ms']:.0f} ms in total):",
+            "",
+            "| model | K | pairs | normals | preprocess | encoder | pair encoder | voting | total (ms) |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
         for r in b["results"]:
             m = r["median_ms"]
-            out.append(f"| {r['category']}{' (refine)' if r.get('refine') else ''} | {r['num_parts']} | {r['pairs']:,} | {'given' if r['normals_given'] else 'estimated'} | "
-                       f"{m['preprocess']:.1f} | {m['encoder']:.1f} | {m['pair_encoder']:.1f} | {m['voting']:.1f} | **{m['total']:.1f}** |")
+            out.append(
+                f"| {r['category']}{' (refine)' if r.get('refine') else ''} | {r['num_parts']} | {r['pairs']:,} | "
+                f"{'given' if r['normals_given'] else 'estimated'} | "
+                f"{m['preprocess']:.1f} | {m['encoder']:.1f} | {m['pair_encoder']:.1f} | {m['voting']:.1f} | "
+                f"**{m['total']:.1f}** |"
+            )
         out.append("")
     if bt.is_file():
         b = json.loads(bt.read_text())
-        out += [f"`python benchmarks/bench_train.py` ({b['threads']} CPU threads): training step at batch 8 (forward, loss, backward, Adam) "
-                "and the preparation of its 8 items (point subset, FPS, pairs), forward pass for one object:", "",
-                "| category | size | points | parameters | step (s) | items (s) | forward, 1 object (ms) |", "|---|---|---|---|---|---|---|"]
+        out += [
+            f"`python benchmarks/bench_train.py` ({b['threads']} CPU threads): training step at batch 8 (forward, loss, "
+            "backward, Adam) "
+            "and the preparation of its 8 items (point subset, FPS, pairs), forward pass for one object:",
+            "",
+            "| category | size | points | parameters | step (s) | items (s) | forward, 1 object (ms) |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in b["results"]:
-            out.append(f"| {r['category']} | {r['size']} | {r['num_points']} | {r['parameters'] / 1e6:.2f} M | {r['step_s_median']:.3f} | "
-                       f"{r.get('items_s_median', float('nan')):.3f} | {r['forward_1_ms_median']:.1f} |")
+            out.append(
+                f"| {r['category']} | {r['size']} | {r['num_points']} | {r['parameters'] / 1e6:.2f} M | "
+                f"{r['step_s_median']:.3f} | "
+                f"{r.get('items_s_median', float('nan')):.3f} | {r['forward_1_ms_median']:.1f} |"
+            )
         out.append("")
 
     if args.notes.is_file():

@@ -33,20 +33,26 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from ucope.data.dataset import load_dataset  # noqa: E402
-from ucope.eval.evaluate import evaluate  # noqa: E402
-from ucope.model.checkpoint import load_model, save_model  # noqa: E402
-from ucope.objects.categories import CATEGORY_NAMES  # noqa: E402
 from ucope.estimation import Estimator  # noqa: E402
-from ucope.model.checkpoint import pretrained_dir  # noqa: E402
+from ucope.eval.evaluate import evaluate  # noqa: E402
+from ucope.model.checkpoint import (  # noqa: E402
+    load_model,
+    pretrained_dir,  # noqa: E402
+    save_model,
+)
+from ucope.objects.categories import CATEGORY_NAMES  # noqa: E402
 
 
 def test_figures(rep: dict) -> dict:
     """The compact test-split figures stored with a shipped model."""
     p = rep["parts"]
     out = {
-        "num_samples": rep["data"]["num_samples"], "data_split": rep["data"].get("split"),
-        "rotation_deg_mean": p["rotation_deg"]["mean"], "translation_m_mean": p["translation_m"]["mean"],
-        "iou_mean": p["iou"]["mean"], "fraction_10deg10cm": p["fraction"]["10deg10cm"],
+        "num_samples": rep["data"]["num_samples"],
+        "data_split": rep["data"].get("split"),
+        "rotation_deg_mean": p["rotation_deg"]["mean"],
+        "translation_m_mean": p["translation_m"]["mean"],
+        "iou_mean": p["iou"]["mean"],
+        "fraction_10deg10cm": p["fraction"]["10deg10cm"],
         "time_s_mean": rep["time_ms"]["mean"]["total"] / 1000.0,
     }
     if rep.get("joints"):
@@ -63,8 +69,8 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
     same views (refinement off / on): see the module docstring."""
     po, pn = off["parts"], on["parts"]
     better_rot = sum(pn["rotation_deg"]["mean"]) < sum(po["rotation_deg"]["mean"])
-    keeps_10 = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"]))
-    keeps_iou = all(b >= a - max_iou_loss for a, b in zip(po["iou"]["mean"], pn["iou"]["mean"]))
+    keeps_10 = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"], strict=False))
+    keeps_iou = all(b >= a - max_iou_loss for a, b in zip(po["iou"]["mean"], pn["iou"]["mean"], strict=False))
     return bool(better_rot and keeps_10 and keeps_iou)
 
 
@@ -72,8 +78,10 @@ def set_defaults(info: dict, reports: Path, cat: str) -> None:
     """``info["defaults"]`` from the refine-off / refine-on reports of ``cat``, if both exist."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
-        info["defaults"] = {"refine": refine_default(json.loads(off.read_text()), json.loads(on.read_text())),
-                            "decided_from": [off.name, on.name]}
+        info["defaults"] = {
+            "refine": refine_default(json.loads(off.read_text()), json.loads(on.read_text())),
+            "decided_from": [off.name, on.name],
+        }
 
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
@@ -127,17 +135,24 @@ def main() -> int:
             half_json = save_model(model, Path(tmp) / "half.json", dtype="float16")
             half, _ = load_model(half_json)
             got = evaluate(Estimator(half, name=cat), check, progress=False, keep_samples=False)
-        change = [max(abs(a - b) for a, b in zip(x, y)) for x, y in zip(summary(ref), summary(got))]
+        change = [max(abs(a - b) for a, b in zip(x, y, strict=False)) for x, y in zip(summary(ref), summary(got), strict=False)]
         fp16_ok = change[0] <= args.max_change_deg and change[1] <= args.max_change_m
         info = dict(meta.get("info", {}))
         info["test"] = test_figures(rep)
         set_defaults(info, args.reports, cat)
-        info["fp16_check"] = {"num_samples": n, "max_change_rotation_deg": change[0], "max_change_translation_m": change[1],
-                              "max_change_iou": change[2], "stored_as": "float16" if fp16_ok else "float32"}
+        info["fp16_check"] = {
+            "num_samples": n,
+            "max_change_rotation_deg": change[0],
+            "max_change_translation_m": change[1],
+            "max_change_iou": change[2],
+            "stored_as": "float16" if fp16_ok else "float32",
+        }
         out = save_model(model, dest / f"{cat}.json", info=info, dtype="float16" if fp16_ok else "float32")
         size = out.with_suffix(".safetensors").stat().st_size
-        print(f"{cat}: {'float16' if fp16_ok else 'float32'} ({size / 1e6:.2f} MB); fp16 change rot {change[0]:.3f} deg, "
-              f"trans {change[1] * 1000:.2f} mm, IoU {change[2]:.4f} on {n} views -> {out}")
+        print(
+            f"{cat}: {'float16' if fp16_ok else 'float32'} ({size / 1e6:.2f} MB); fp16 change rot {change[0]:.3f} deg, "
+            f"trans {change[1] * 1000:.2f} mm, IoU {change[2]:.4f} on {n} views -> {out}"
+        )
     total = sum(f.stat().st_size for f in dest.iterdir())
     print(f"{dest}: {total / 1e6:.1f} MB in all")
     return 0

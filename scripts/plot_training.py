@@ -40,19 +40,19 @@ def main() -> None:
     cols = min(3, len(keys))
     rows_n = (len(keys) + cols - 1) // cols
     fig, axes = plt.subplots(rows_n, cols, figsize=(4.2 * cols, 3.2 * rows_n), squeeze=False)
-    for ax, key in zip(axes.ravel(), keys):
+    for ax, key in zip(axes.ravel(), keys, strict=False):
         for i, (run, rows) in enumerate(runs.items()):
             color = f"C{i}"
             tr = [(r["step"], r[f"train/{key}"]) for r in rows if f"train/{key}" in r]
             va = [(r["step"], r[f"val/{key}"]) for r in rows if f"val/{key}" in r]
             if tr:
-                ax.plot(*zip(*tr), color=color, alpha=0.35, lw=0.8, label=f"{run.name} train")
+                ax.plot(*zip(*tr, strict=False), color=color, alpha=0.35, lw=0.8, label=f"{run.name} train")
             if va:
-                ax.plot(*zip(*va), color=color, marker="o", ms=3, lw=1.5, label=f"{run.name} val")
+                ax.plot(*zip(*va, strict=False), color=color, marker="o", ms=3, lw=1.5, label=f"{run.name} val")
         ax.set_title(key)
         ax.set_xlabel("step")
         ax.grid(alpha=0.3)
-    for ax in axes.ravel()[len(keys):]:
+    for ax in axes.ravel()[len(keys) :]:
         ax.axis("off")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()

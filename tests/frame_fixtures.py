@@ -194,7 +194,7 @@ def write_bop_scene(scene: Path, frame: dict, obj_ids: list[list[int]], im_id: i
     has the part's box at ``[0, size]`` (not centred, as BOP models often are)."""
     cam = frame["camera"]
     gts, info = [], {}
-    for i, (o, ids) in enumerate(zip(frame["objects"], obj_ids)):
+    for i, (o, ids) in enumerate(zip(frame["objects"], obj_ids, strict=False)):
         for k, oid in enumerate(ids):
             T = o["cam_from_part"][k]
             half = o["size_m"][k] / 2

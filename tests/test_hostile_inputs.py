@@ -52,11 +52,24 @@ def test_ascii_and_binary_ply_with_extra_properties_from_other_writers(tmp_path,
     plyfile = pytest.importorskip("plyfile")
     pts = mug_sample["points"].astype(np.float64)
     nrm = mug_sample["normals"].astype(np.float32)
-    v = np.empty(len(pts), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), ("nx", "f4"), ("ny", "f4"), ("nz", "f4"),
-                                  ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("intensity", "f4")])
-    for k, a in zip(("x", "y", "z"), pts.T):
+    v = np.empty(
+        len(pts),
+        dtype=[
+            ("x", "f8"),
+            ("y", "f8"),
+            ("z", "f8"),
+            ("nx", "f4"),
+            ("ny", "f4"),
+            ("nz", "f4"),
+            ("red", "u1"),
+            ("green", "u1"),
+            ("blue", "u1"),
+            ("intensity", "f4"),
+        ],
+    )
+    for k, a in zip(("x", "y", "z"), pts.T, strict=False):
         v[k] = a
-    for k, a in zip(("nx", "ny", "nz"), nrm.T):
+    for k, a in zip(("nx", "ny", "nz"), nrm.T, strict=False):
         v[k] = a
     v["red"], v["intensity"] = 200, 0.5
     faces = np.array([([0, 1, 2],)], dtype=[("vertex_indices", "i4", (3,))])
@@ -71,7 +84,19 @@ def test_ascii_and_binary_ply_with_extra_properties_from_other_writers(tmp_path,
 
     trimesh.PointCloud(pts).export(tmp_path / "trimesh.ply")
     np.testing.assert_allclose(read_point_cloud(tmp_path / "trimesh.ply")[0], pts, rtol=1e-6)
-    rc = main(["predict", "--model", "mug", "--pairs", "2000", "--input", str(tmp_path / "cloud_ascii.ply"), "--out", str(tmp_path / "r.json")])
+    rc = main(
+        [
+            "predict",
+            "--model",
+            "mug",
+            "--pairs",
+            "2000",
+            "--input",
+            str(tmp_path / "cloud_ascii.ply"),
+            "--out",
+            str(tmp_path / "r.json"),
+        ]
+    )
     assert rc == 0 and json.loads((tmp_path / "r.json").read_text())["format"] == "ucope-result/1"
 
 
@@ -104,7 +129,7 @@ def test_organised_cloud_with_nans_predicts_and_labels_every_pixel(mug_sample, m
     grid = np.full((64, 96, 3), np.nan)
     grid.reshape(-1, 3)[: len(mug_sample["points"])] = mug_sample["points"]
     res = mug.predict(grid)
-    assert len(res.part_labels) == 64 * 96 and (res.part_labels[len(mug_sample["points"]):] == -1).all()
+    assert len(res.part_labels) == 64 * 96 and (res.part_labels[len(mug_sample["points"]) :] == -1).all()
     assert not any("NaN" in w for w in res.warnings)  # an organised cloud marks missing pixels with NaN: normal
 
 
@@ -170,23 +195,37 @@ def test_a_glob_with_one_bad_file_predicts_the_others_and_exits_non_zero(tmp_pat
     np.save(tmp_path / "a.npy", mug_sample["points"])
     np.save(tmp_path / "b.npy", np.zeros((4, 2)))
     np.save(tmp_path / "c.npy", mug_sample["points"][::-1])
-    rc, err = _cli(capsys, "predict", "--model", "mug", "--pairs", "2000", "--quiet", "--input", str(tmp_path / "*.npy"),
-                   "--out", str(tmp_path / "out"))
+    rc, err = _cli(
+        capsys,
+        "predict",
+        "--model",
+        "mug",
+        "--pairs",
+        "2000",
+        "--quiet",
+        "--input",
+        str(tmp_path / "*.npy"),
+        "--out",
+        str(tmp_path / "out"),
+    )
     assert rc == 2 and "b: error" in err and "1 of 3" in err
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["a.json", "c.json"]
 
 
 def test_vis_without_matplotlib_fails_before_predicting(tmp_path, mug_sample):
     np.save(tmp_path / "c.npy", mug_sample["points"])
-    code = ("import sys, importlib.abc\n"
-            "class Block(importlib.abc.MetaPathFinder):\n"
-            "    def find_spec(self, name, path=None, target=None):\n"
-            "        if name.split('.')[0] == 'matplotlib':\n"
-            "            raise ImportError('no matplotlib here')\n"
-            "sys.meta_path.insert(0, Block())\n"
-            "from ucope.cli.main import main\n"
-            f"sys.exit(main(['predict', '--model', 'mug', '--input', {str(tmp_path / 'c.npy')!r}, '--out', {str(tmp_path / 'r.json')!r},"
-            f" '--vis', {str(tmp_path / 'r.png')!r}]))\n")
+    code = (
+        "import sys, importlib.abc\n"
+        "class Block(importlib.abc.MetaPathFinder):\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'matplotlib':\n"
+        "            raise ImportError('no matplotlib here')\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "from ucope.cli.main import main\n"
+        f"sys.exit(main(['predict', '--model', 'mug', '--input', {str(tmp_path / 'c.npy')!r}, '--out', "
+        f"{str(tmp_path / 'r.json')!r},"
+        f" '--vis', {str(tmp_path / 'r.png')!r}]))\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and "matplotlib" in out.stderr and "Traceback" not in out.stderr
     assert not (tmp_path / "r.json").exists()  # nothing predicted, nothing written
@@ -243,7 +282,9 @@ def test_labels_of_a_huge_cloud_match_the_exact_nearest_network_point(mug_sample
 
 
 def test_ucope_data_needs_no_explicit_import():
-    out = subprocess.run([sys.executable, "-c", "import ucope; print(ucope.data.load_dataset.__name__)"], capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-c", "import ucope; print(ucope.data.load_dataset.__name__)"], capture_output=True, text=True
+    )
     assert out.returncode == 0 and out.stdout.strip() == "load_dataset"
 
 
@@ -256,9 +297,12 @@ def _tiny_set(tmp_path, name="d", **kw):
 def test_bad_meta_and_corrupt_shards_are_named(tmp_path):
     root = _tiny_set(tmp_path)
     meta = json.loads((root / "meta.json").read_text())
-    for bad, match in (({"shard_size": 0}, "must be positive"), ({"num": -5}, "must be positive"),
-                       ({"generator_version": "0"}, "generator version 0, this ucope uses"),
-                       ({"conventions_version": "9"}, "conventions version 9")):
+    for bad, match in (
+        ({"shard_size": 0}, "must be positive"),
+        ({"num": -5}, "must be positive"),
+        ({"generator_version": "0"}, "generator version 0, this ucope uses"),
+        ({"conventions_version": "9"}, "conventions version 9"),
+    ):
         (root / "meta.json").write_text(json.dumps({**meta, **bad}))
         with pytest.raises(DataError, match=match):
             ucope.data.load_dataset(root)[0]
@@ -284,7 +328,21 @@ def test_bad_meta_and_corrupt_shards_are_named(tmp_path):
 def test_generate_into_a_folder_of_shards_without_meta_refuses(tmp_path, capsys):
     root = _tiny_set(tmp_path)
     (root / "meta.json").unlink()
-    rc, err = _cli(capsys, "generate", "--category", "laptop", "--split", "test", "--num", "4", "--shard-size", "2", "--out", str(root), "--quiet")
+    rc, err = _cli(
+        capsys,
+        "generate",
+        "--category",
+        "laptop",
+        "--split",
+        "test",
+        "--num",
+        "4",
+        "--shard-size",
+        "2",
+        "--out",
+        str(root),
+        "--quiet",
+    )
     assert rc == 2 and "no meta.json" in err
 
 
@@ -301,9 +359,30 @@ def test_files_follow_the_umask(tmp_path, mug_sample, mug):
 
 def test_a_killed_generate_leaves_no_worker_behind(tmp_path):
     out = tmp_path / "big"
-    proc = subprocess.Popen([sys.executable, "-m", "ucope", "generate", "--category", "drawer", "--split", "train", "--num", "400",
-                             "--shard-size", "20", "--workers", "2", "--out", str(out), "--quiet"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=False)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "ucope",
+            "generate",
+            "--category",
+            "drawer",
+            "--split",
+            "train",
+            "--num",
+            "400",
+            "--shard-size",
+            "20",
+            "--workers",
+            "2",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=False,
+    )
     deadline = time.time() + 60
     while time.time() < deadline and not list(out.glob("shard_*.npz")):
         time.sleep(0.2)

@@ -36,10 +36,10 @@ def test_measured_priors_bound_the_vote_parameters_and_round_trip():
     assert j.type == JointType.REVOLUTE and j.limits == (0.35, 2.6) and j.zero_offset_m == 0.0
     # the lid sits above the base (+y in the base frame), the base below the lid
     assert j.child_in_parent[1] > 0.1 and j.parent_in_child[1] < 0.0
-    for k, t in enumerate(pri.shape_templates):  # the templates fill the unit box
+    for t in pri.shape_templates:  # the templates fill the unit box
         assert t.dtype == np.float32 and len(t) > 100 and np.abs(t).max() <= 0.5 and np.ptp(t, axis=0).min() > 0.5
     back = CategoryPriors.from_dict(json.loads(json.dumps(pri.to_dict())), pri.tensors())
-    assert back == pri and all(np.array_equal(a, b) for a, b in zip(back.shape_templates, pri.shape_templates))
+    assert back == pri and all(np.array_equal(a, b) for a, b in zip(back.shape_templates, pri.shape_templates, strict=False))
 
 
 def test_prismatic_zero_offsets_and_limits_widened_to_the_states_seen():
@@ -86,8 +86,11 @@ def test_bad_priors_and_structures_are_refused():
     with pytest.raises(InputError, match="unique"):
         CategoryPriors(category="c", parts=(part, part), joints=(joint,))
     with pytest.raises(InputError, match="tree"):
-        CategoryPriors(category="c", parts=(part, PartPrior("b", "none", 0.2, (0.1, 0.1, 0.1))),
-                       joints=(JointPrior(type="revolute", parent=1, child=1, axis_in_parent=(1, 0, 0)),))
+        CategoryPriors(
+            category="c",
+            parts=(part, PartPrior("b", "none", 0.2, (0.1, 0.1, 0.1))),
+            joints=(JointPrior(type="revolute", parent=1, child=1, axis_in_parent=(1, 0, 0)),),
+        )
     with pytest.raises(InputError, match="malformed category priors"):
         CategoryPriors.from_dict({"category": "c", "parts": []})
     with pytest.raises(InputError, match="malformed category structure"):

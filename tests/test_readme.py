@@ -47,8 +47,13 @@ def commands(code: str) -> list[str]:
 
 def test_the_readme_has_the_documented_sections():
     text = README.read_text()
-    for heading in ("## Set-up, demo and tests", "## Predict on your own point cloud", "## Predict on your own RGB-D frame",
-                    "## Reading the result", "## Train your own category"):
+    for heading in (
+        "## Set-up, demo and tests",
+        "## Predict on your own point cloud",
+        "## Predict on your own RGB-D frame",
+        "## Reading the result",
+        "## Train your own category",
+    ):
         assert heading in text
     assert "make demo" in text and "make test" in text
 

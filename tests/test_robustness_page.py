@@ -20,9 +20,23 @@ def test_robustness_page_is_regenerated_from_the_results(tmp_path):
     page = tmp_path / "docs" / "robustness.md"
     page.parent.mkdir()
     shutil.copy(PAGE, page)
-    r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_robustness.py"), "--page-only", "--out", str(RESULTS),
-                        "--page", str(page), "--figure", str(tmp_path / "docs" / "images" / "robustness.png")],
-                       check=False, capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "benchmarks" / "bench_robustness.py"),
+            "--page-only",
+            "--out",
+            str(RESULTS),
+            "--page",
+            str(page),
+            "--figure",
+            str(tmp_path / "docs" / "images" / "robustness.png"),
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr
     assert page.read_text() == PAGE.read_text()
     assert (tmp_path / "docs" / "images" / "robustness.png").stat().st_size > 10_000
@@ -34,7 +48,19 @@ def test_the_results_cover_every_shipped_model_kind_and_level():
     from ucope.data.corrupt import KINDS
 
     assert res["settings"]["num"] == 40 and res["settings"]["split"] == "test"
-    models = ("laptop", "eyeglasses", "dishwasher", "scissors", "drawer", "bottle", "bowl", "camera", "can", "laptop_rigid", "mug")
+    models = (
+        "laptop",
+        "eyeglasses",
+        "dishwasher",
+        "scissors",
+        "drawer",
+        "bottle",
+        "bowl",
+        "camera",
+        "can",
+        "laptop_rigid",
+        "mug",
+    )
     assert set(res["models"]) == set(models)
     for m in models:
         levels = res["models"][m]["levels"]

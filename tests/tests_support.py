@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from ucope.objects.articulation import build_object, make_part
 from ucope.objects.shapes import box
 
@@ -13,11 +11,14 @@ def make_toy_object(joint_type: str = "revolute"):
     base, T0 = make_part("base", box([0.4, 0.1, 0.3], [0.0, 0.05, 0.0]))
     lid, T1 = make_part("lid", box([0.4, 0.02, 0.3], [0.0, 0.11, 0.0]))
     if joint_type == "revolute":
-        joint = dict(type="revolute", parent=0, child=1, pivot=[0.0, 0.1, -0.15], axis=[-1.0, 0.0, 0.0], limits=(0.0, 2.5), rest=1.0)
+        joint = dict(
+            type="revolute", parent=0, child=1, pivot=[0.0, 0.1, -0.15], axis=[-1.0, 0.0, 0.0], limits=(0.0, 2.5), rest=1.0
+        )
     else:
-        joint = dict(type="prismatic", parent=0, child=1, pivot=[0.0, 0.1, 0.0], axis=[0.0, 0.0, 1.0], limits=(0.0, 0.25), rest=0.0)
+        joint = dict(
+            type="prismatic", parent=0, child=1, pivot=[0.0, 0.1, 0.0], axis=[0.0, 0.0, 1.0], limits=(0.0, 0.25), rest=0.0
+        )
     return build_object("toy", "toy/0", [(base, T0), (lid, T1)], [joint])
-
 
 
 def measured_priors(category: str, samples):

@@ -17,8 +17,23 @@ from .versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 __all__ = ["__version__", "CONVENTIONS_VERSION", "GENERATOR_VERSION", "Estimator", "PoseResult"]
 
 
-_SUBMODULES = ("cli", "data", "errors", "estimation", "eval", "fileio", "geometry", "model", "objects", "plotting", "priors",
-               "render", "versions", "vocab", "voting")
+_SUBMODULES = (
+    "cli",
+    "data",
+    "errors",
+    "estimation",
+    "eval",
+    "fileio",
+    "geometry",
+    "model",
+    "objects",
+    "plotting",
+    "priors",
+    "render",
+    "versions",
+    "vocab",
+    "voting",
+)
 
 
 def __getattr__(name: str):

@@ -81,8 +81,12 @@ class PartPrior:
         object.__setattr__(self, "mean_size_m", tuple(float(x) for x in size))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "symmetry": self.symmetry, "vote_range_m": self.vote_range_m,
-                "mean_size_m": list(self.mean_size_m)}
+        return {
+            "name": self.name,
+            "symmetry": self.symmetry,
+            "vote_range_m": self.vote_range_m,
+            "mean_size_m": list(self.mean_size_m),
+        }
 
 
 @dataclass(frozen=True)
@@ -117,7 +121,9 @@ class JointPrior:
     def __post_init__(self) -> None:
         jt = JointType.parse(self.type)
         if jt == JointType.FIXED:
-            raise InputError(f"joint {self.parent}->{self.child}: a category joint must be revolute or prismatic (fixed parts merge)")
+            raise InputError(
+                f"joint {self.parent}->{self.child}: a category joint must be revolute or prismatic (fixed parts merge)"
+            )
         object.__setattr__(self, "type", jt)
         ax = _finite(self.axis_in_parent, f"joint {self.parent}->{self.child} axis_in_parent").reshape(-1)
         if ax.shape != (3,) or np.linalg.norm(ax) < 1e-9:
@@ -142,10 +148,16 @@ class JointPrior:
         return np.array(self.axis_in_parent, dtype=np.float64)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"type": self.type.label, "parent": int(self.parent), "child": int(self.child),
-                "axis_in_parent": list(self.axis_in_parent), "limits": list(self.limits),
-                "zero_offset_m": self.zero_offset_m, "child_in_parent": list(self.child_in_parent),
-                "parent_in_child": list(self.parent_in_child)}
+        return {
+            "type": self.type.label,
+            "parent": int(self.parent),
+            "child": int(self.child),
+            "axis_in_parent": list(self.axis_in_parent),
+            "limits": list(self.limits),
+            "zero_offset_m": self.zero_offset_m,
+            "child_in_parent": list(self.child_in_parent),
+            "parent_in_child": list(self.parent_in_child),
+        }
 
 
 @dataclass(frozen=True)
@@ -192,7 +204,9 @@ class CategoryPriors:
             if not (0 <= j.parent < K and 0 < j.child < K):
                 raise InputError(f"category {self.category!r}: joint {j.parent}->{j.child} names a part outside 0..{K - 1}")
             if j.parent not in placed or j.child in placed:
-                raise InputError(f"category {self.category!r}: the joints must form a tree rooted at part 0, parents before children")
+                raise InputError(
+                    f"category {self.category!r}: the joints must form a tree rooted at part 0, parents before children"
+                )
             placed.add(j.child)
         object.__setattr__(self, "norm_scale_m", float(_finite(self.norm_scale_m, "norm_scale_m", True)))
         if self.radius_range_m is not None:
@@ -243,10 +257,14 @@ class CategoryPriors:
     # ------------------------------------------------------------------------------ (de)serialise
     def to_dict(self) -> dict[str, Any]:
         """The JSON form (everything but the shape templates: :meth:`tensors`)."""
-        return {"category": self.category, "parts": [p.to_dict() for p in self.parts],
-                "joints": [j.to_dict() for j in self.joints], "norm_scale_m": self.norm_scale_m,
-                "num_samples": int(self.num_samples),
-                "radius_range_m": None if self.radius_range_m is None else list(self.radius_range_m)}
+        return {
+            "category": self.category,
+            "parts": [p.to_dict() for p in self.parts],
+            "joints": [j.to_dict() for j in self.joints],
+            "norm_scale_m": self.norm_scale_m,
+            "num_samples": int(self.num_samples),
+            "radius_range_m": None if self.radius_range_m is None else list(self.radius_range_m),
+        }
 
     def tensors(self) -> dict[str, np.ndarray]:
         """The shape templates as named float32 arrays (``shape_template.<k>``), stored beside the weights."""
@@ -256,19 +274,41 @@ class CategoryPriors:
     def from_dict(cls, d: Mapping[str, Any], tensors: Mapping[str, Any] | None = None) -> CategoryPriors:
         """Inverse of :meth:`to_dict` (+ :meth:`tensors`); :class:`InputError` on a malformed form."""
         try:
-            parts = tuple(PartPrior(name=str(p["name"]), symmetry=str(p["symmetry"]), vote_range_m=p["vote_range_m"],
-                                    mean_size_m=tuple(p["mean_size_m"])) for p in d["parts"])
-            joints = tuple(JointPrior(type=j["type"], parent=int(j["parent"]), child=int(j["child"]),
-                                      axis_in_parent=tuple(j["axis_in_parent"]), limits=tuple(j["limits"]),
-                                      zero_offset_m=j.get("zero_offset_m", 0.0), child_in_parent=tuple(j["child_in_parent"]),
-                                      parent_in_child=tuple(j["parent_in_child"])) for j in d["joints"])
+            parts = tuple(
+                PartPrior(
+                    name=str(p["name"]),
+                    symmetry=str(p["symmetry"]),
+                    vote_range_m=p["vote_range_m"],
+                    mean_size_m=tuple(p["mean_size_m"]),
+                )
+                for p in d["parts"]
+            )
+            joints = tuple(
+                JointPrior(
+                    type=j["type"],
+                    parent=int(j["parent"]),
+                    child=int(j["child"]),
+                    axis_in_parent=tuple(j["axis_in_parent"]),
+                    limits=tuple(j["limits"]),
+                    zero_offset_m=j.get("zero_offset_m", 0.0),
+                    child_in_parent=tuple(j["child_in_parent"]),
+                    parent_in_child=tuple(j["parent_in_child"]),
+                )
+                for j in d["joints"]
+            )
             templates: tuple = ()
             if tensors:
                 templates = tuple(np.asarray(tensors[f"shape_template.{k}"]) for k in range(len(parts)))
             rr = d.get("radius_range_m")
-            return cls(category=str(d["category"]), parts=parts, joints=joints, norm_scale_m=d["norm_scale_m"],
-                       num_samples=int(d.get("num_samples", 0)), radius_range_m=None if rr is None else tuple(rr),
-                       shape_templates=templates)
+            return cls(
+                category=str(d["category"]),
+                parts=parts,
+                joints=joints,
+                norm_scale_m=d["norm_scale_m"],
+                num_samples=int(d.get("num_samples", 0)),
+                radius_range_m=None if rr is None else tuple(rr),
+                shape_templates=templates,
+            )
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"malformed category priors: {type(e).__name__}: {e}") from None
 
@@ -286,12 +326,21 @@ def structure_from_dict(d: Mapping[str, Any]) -> tuple[list[tuple[str, str]], li
     Raises :class:`InputError` naming what is missing or malformed."""
     try:
         parts = [(str(p["name"]), parse_symmetry(p["symmetry"])) for p in d["parts"]]
-        joints = [{"type": JointType.parse(j["type"]), "parent": int(j["parent"]), "child": int(j["child"]),
-                   "axis_in_parent": _finite(j["axis_in_parent"], "axis_in_parent").reshape(3),
-                   "limits": tuple(None if v is None else float(v) for v in j["limits"])} for j in d["joints"]]
+        joints = [
+            {
+                "type": JointType.parse(j["type"]),
+                "parent": int(j["parent"]),
+                "child": int(j["child"]),
+                "axis_in_parent": _finite(j["axis_in_parent"], "axis_in_parent").reshape(3),
+                "limits": tuple(None if v is None else float(v) for v in j["limits"]),
+            }
+            for j in d["joints"]
+        ]
     except (KeyError, TypeError, ValueError) as e:
-        raise InputError(f"malformed category structure ({type(e).__name__}: {e}): expected parts [{{name, symmetry}}] "
-                         "and joints [{type, parent, child, axis_in_parent, limits}]") from None
+        raise InputError(
+            f"malformed category structure ({type(e).__name__}: {e}): expected parts [{{name, symmetry}}] "
+            "and joints [{type, parent, child, axis_in_parent, limits}]"
+        ) from None
     if len(joints) != len(parts) - 1:
         raise InputError(f"the structure declares {len(parts)} parts and {len(joints)} joints; it needs {len(parts) - 1}")
     return parts, joints
@@ -345,8 +394,13 @@ def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_p
     return allp.astype(np.float32)
 
 
-def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structure: Mapping[str, Any],
-                   max_samples: int = 2000, template_samples: int = 400) -> CategoryPriors:
+def measure_priors(
+    samples: Sequence[Mapping[str, Any]],
+    category: str,
+    structure: Mapping[str, Any],
+    max_samples: int = 2000,
+    template_samples: int = 400,
+) -> CategoryPriors:
     """Measure a category's :class:`CategoryPriors` on (up to ``max_samples`` evenly spaced) training samples.
 
     Args:
@@ -357,8 +411,8 @@ def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structur
         template_samples: samples (evenly spaced) whose points make the shape templates.
 
     The statistics: vote range 1.1 x the largest half box diagonal, mean size = geometric mean, input
-    scale = mean cloud radius, the range of :func:`cloud_radius`, prismatic zero offsets and part placements at the true poses, joint
-    limits = the declared limits widened to every state seen. Raises :class:`InputError` on an empty
+    scale = mean cloud radius, the range of :func:`cloud_radius`, prismatic zero offsets and part placements at
+    the true poses, joint limits = the declared limits widened to every state seen. Raises :class:`InputError` on an empty
     data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
@@ -380,8 +434,10 @@ def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structur
     robust = [cloud_radius(p) for p in clouds]
     vote = 1.1 * 0.5 * np.linalg.norm(size, axis=-1).max(0)
     mean = np.exp(np.log(size).mean(0))
-    parts = tuple(PartPrior(name=nm, symmetry=sym, vote_range_m=float(vote[k]), mean_size_m=tuple(mean[k]))
-                  for k, (nm, sym) in enumerate(part_decl))
+    parts = tuple(
+        PartPrior(name=nm, symmetry=sym, vote_range_m=float(vote[k]), mean_size_m=tuple(mean[k]))
+        for k, (nm, sym) in enumerate(part_decl)
+    )
     joints = []
     if J:
         T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
@@ -396,11 +452,27 @@ def measure_priors(samples: Sequence[Mapping[str, Any]], category: str, structur
             lo, hi = jd["limits"]
             lo = None if lo is None else min(lo, float(Q[:, j].min()))
             hi = None if hi is None else max(hi, float(Q[:, j].max()))
-            joints.append(JointPrior(type=jd["type"], parent=p, child=c, axis_in_parent=tuple(jd["axis_in_parent"]),
-                                     limits=(lo, hi), zero_offset_m=zero, child_in_parent=tuple(cip.mean(0)),
-                                     parent_in_child=tuple(pic.mean(0))))
+            joints.append(
+                JointPrior(
+                    type=jd["type"],
+                    parent=p,
+                    child=c,
+                    axis_in_parent=tuple(jd["axis_in_parent"]),
+                    limits=(lo, hi),
+                    zero_offset_m=zero,
+                    child_in_parent=tuple(cip.mean(0)),
+                    parent_in_child=tuple(pic.mean(0)),
+                )
+            )
     t_idx = np.unique(np.linspace(0, n - 1, min(n, int(template_samples))).round().astype(np.int64))
     t_samples = [samples[int(i)] for i in t_idx]
     templates = tuple(shape_template_points(t_samples, k) for k in range(K))
-    return CategoryPriors(category=category, parts=parts, joints=tuple(joints), norm_scale_m=float(np.mean(radii)),
-                          num_samples=len(idx), radius_range_m=(min(robust), max(robust)), shape_templates=templates)
+    return CategoryPriors(
+        category=category,
+        parts=parts,
+        joints=tuple(joints),
+        norm_scale_m=float(np.mean(radii)),
+        num_samples=len(idx),
+        radius_range_m=(min(robust), max(robust)),
+        shape_templates=templates,
+    )

@@ -38,7 +38,7 @@ class JointType(enum.IntEnum):
         return {JointType.REVOLUTE: "rad", JointType.PRISMATIC: "m"}.get(self, "")
 
     @classmethod
-    def parse(cls, value) -> "JointType":
+    def parse(cls, value) -> JointType:
         """A :class:`JointType` from itself, its code (``0``/``1``/``2``) or its word (``"revolute"``...).
 
         Raises :class:`ucope.errors.InputError` naming the accepted values otherwise."""

@@ -32,7 +32,25 @@ def test_categories_lists_all_eleven(capsys):
 
 def test_generate_and_show(tmp_path, capsys):
     out = tmp_path / "d"
-    assert main(["generate", "--category", "eyeglasses", "--split", "test", "--num", "3", "--shard-size", "2", "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "generate",
+                "--category",
+                "eyeglasses",
+                "--split",
+                "test",
+                "--num",
+                "3",
+                "--shard-size",
+                "2",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     assert (out / "shard_00001.npz").exists()
     png = tmp_path / "x.png"
     assert main(["show", str(out), "--index", "0", "2", "--out", str(png)]) == 0
@@ -42,7 +60,10 @@ def test_generate_and_show(tmp_path, capsys):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["generate", "--category", "teapot", "--num", "2", "--out", "{tmp}/a"], "unknown category 'teapot'; valid categories: laptop"),
+        (
+            ["generate", "--category", "teapot", "--num", "2", "--out", "{tmp}/a"],
+            "unknown category 'teapot'; valid categories: laptop",
+        ),
         (["generate", "--category", "mug", "--num", "0", "--out", "{tmp}/a"], "num must be a positive integer"),
         (["generate", "--category", "mug", "--num", "2", "--out", "{tmp}/file/sub"], "cannot write to output folder"),
         (["generate", "--category", "mug", "--num", "2", "--shards", "x", "--out", "{tmp}/a"], "--shards must look like"),

@@ -10,11 +10,10 @@ import pytest
 
 from ucope.cli.main import main
 from ucope.data.generate import GenerateConfig, make_sample
-from ucope.eval.evaluate import sample_errors
-from ucope.model.checkpoint import read_model_json
-from ucope.objects.categories import CATEGORY_NAMES
 from ucope.estimation import Estimator
-from ucope.model.checkpoint import list_pretrained, pretrained_dir
+from ucope.eval.evaluate import sample_errors
+from ucope.model.checkpoint import list_pretrained, pretrained_dir, read_model_json
+from ucope.objects.categories import CATEGORY_NAMES
 
 
 def test_every_category_ships_a_small_model():

@@ -38,7 +38,9 @@ def test_ply(tmp_path, cloud):
     trimesh.PointCloud(pts).export(tmp_path / "a.ply")
     p, _ = read_point_cloud(tmp_path / "a.ply")
     np.testing.assert_allclose(p, pts, atol=1e-6)
-    (tmp_path / "bad.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 10\nproperty float x\nend_header\n\x00")
+    (tmp_path / "bad.ply").write_bytes(
+        b"ply\nformat binary_little_endian 1.0\nelement vertex 10\nproperty float x\nend_header\n\x00"
+    )
     with pytest.raises(DataError, match="bad.ply"):
         read_point_cloud(tmp_path / "bad.ply")
 

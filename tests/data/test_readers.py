@@ -125,7 +125,7 @@ def test_artimage_parts_and_joints_in_our_conventions(artimage_roots, category):
     root, frames = artimage_roots[category]
     samples = read_artimage(root, category)
     assert len(samples) == 2
-    for s, fr in zip(samples, frames):
+    for s, fr in zip(samples, frames, strict=False):
         check_sample(s)
         truth = fr["objects"][0]
         np.testing.assert_allclose(s["cam_from_part"], truth["cam_from_part"], atol=1e-9)
@@ -190,7 +190,7 @@ def test_bop_scenes_rigid_and_articulated(bop_root):
     root, frame = bop_root
     mugs = read_bop(root / "test", "mug", obj_id=1)
     assert len(mugs) == 2
-    for s, truth in zip(mugs, frame["objects"][:2]):
+    for s, truth in zip(mugs, frame["objects"][:2], strict=False):
         check_sample(s)
         np.testing.assert_allclose(s["cam_from_part"], truth["cam_from_part"], atol=1e-6)  # mm JSON, box offset taken out
         np.testing.assert_allclose(s["size_m"], truth["size_m"], atol=1e-9)

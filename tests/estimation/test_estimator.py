@@ -1,16 +1,14 @@
 import json
-import warnings
 
 import numpy as np
 import pytest
-import torch
 
 from ucope.cli.main import main
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import DataError, InputError
-from ucope.model.train import TrainConfig, train
 from ucope.estimation import MIN_POINTS, Estimator, rgbd_points
 from ucope.estimation.result import PoseResult
+from ucope.model.train import TrainConfig, train
 
 TINY_ENCODER = dict(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
 
@@ -21,9 +19,20 @@ def tiny_run(tmp_path_factory):
     from ucope.model.pointnet2 import PointNet2Config
 
     out = tmp_path_factory.mktemp("run")
-    train(TrainConfig(category="laptop", out=str(out), on_the_fly=True, epoch_size=8, steps=4, batch_size=2, val_samples=2,
-                      model_overrides=dict(encoder=PointNet2Config(**TINY_ENCODER), num_points=256, pairs_per_part=32, hidden=32),
-                      progress=False, threads=1))
+    train(
+        TrainConfig(
+            category="laptop",
+            out=str(out),
+            on_the_fly=True,
+            epoch_size=8,
+            steps=4,
+            batch_size=2,
+            val_samples=2,
+            model_overrides=dict(encoder=PointNet2Config(**TINY_ENCODER), num_points=256, pairs_per_part=32, hidden=32),
+            progress=False,
+            threads=1,
+        )
+    )
     return out
 
 
@@ -59,16 +68,19 @@ def test_predict_is_repeatable_and_estimates_normals(est, sample):
     assert a.to_dict()["parts"] == b.to_dict()["parts"]
 
 
-@pytest.mark.parametrize("bad, match", [
-    (np.zeros((0, 3)), "empty"),
-    (np.zeros((10, 3)), f"at least {MIN_POINTS}"),
-    (np.zeros((100, 2)), r"shape \(N, 3\)"),
-    (np.zeros((5, 100, 4)), r"shape \(N, 3\)"),
-    (np.zeros((2, 5, 100, 3)), r"shape \(N, 3\)"),
-    (np.full((200, 3), np.nan), "usable"),
-    (np.array([["a", "b", "c"]] * 40), "real numbers"),
-    (np.ones((100, 3)), "coincide"),
-])
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        (np.zeros((0, 3)), "empty"),
+        (np.zeros((10, 3)), f"at least {MIN_POINTS}"),
+        (np.zeros((100, 2)), r"shape \(N, 3\)"),
+        (np.zeros((5, 100, 4)), r"shape \(N, 3\)"),
+        (np.zeros((2, 5, 100, 3)), r"shape \(N, 3\)"),
+        (np.full((200, 3), np.nan), "usable"),
+        (np.array([["a", "b", "c"]] * 40), "real numbers"),
+        (np.ones((100, 3)), "coincide"),
+    ],
+)
 def test_bad_clouds_get_clear_errors(est, bad, match):
     with pytest.raises(InputError, match=match):
         est.predict(bad)
@@ -135,17 +147,84 @@ def test_missing_or_tampered_model(tiny_run, tmp_path):
 def test_cli_predict_on_files_folder_and_dataset(tiny_run, sample, tmp_path, capsys):
     np.save(tmp_path / "a.npy", sample["points"])
     np.savetxt(tmp_path / "b.xyz", np.asarray(sample["points"])[:800])
-    assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path / "a.npy"), "--out", str(tmp_path / "a.json"),
-                 "--pairs", "1000", "--vis", str(tmp_path / "a.png")]) == 0
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(tiny_run),
+                "--input",
+                str(tmp_path / "a.npy"),
+                "--out",
+                str(tmp_path / "a.json"),
+                "--pairs",
+                "1000",
+                "--vis",
+                str(tmp_path / "a.png"),
+            ]
+        )
+        == 0
+    )
     d = json.loads((tmp_path / "a.json").read_text())
     assert d["format"] == "ucope-result/1" and len(d["parts"]) == 2
     assert (tmp_path / "a.png").stat().st_size > 1000
-    assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path), "--out", str(tmp_path / "many"), "--pairs", "1000", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(tiny_run),
+                "--input",
+                str(tmp_path),
+                "--out",
+                str(tmp_path / "many"),
+                "--pairs",
+                "1000",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     assert sorted(p.name for p in (tmp_path / "many").iterdir()) == ["a.json", "b.json"]
-    main(["generate", "--category", "laptop", "--split", "test", "--num", "2", "--shard-size", "2", "--out", str(tmp_path / "d"), "--quiet"])
+    main(
+        [
+            "generate",
+            "--category",
+            "laptop",
+            "--split",
+            "test",
+            "--num",
+            "2",
+            "--shard-size",
+            "2",
+            "--out",
+            str(tmp_path / "d"),
+            "--quiet",
+        ]
+    )
     capsys.readouterr()
-    assert main(["predict", "--model", str(tiny_run), "--data", str(tmp_path / "d"), "--index", "0", "1", "--out", str(tmp_path / "ds"),
-                 "--pairs", "1000", "--vis", str(tmp_path / "ds.png"), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(tiny_run),
+                "--data",
+                str(tmp_path / "d"),
+                "--index",
+                "0",
+                "1",
+                "--out",
+                str(tmp_path / "ds"),
+                "--pairs",
+                "1000",
+                "--vis",
+                str(tmp_path / "ds.png"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "rotation" in printed and "joint 0->1 (revolute)" in printed
     d = json.loads((tmp_path / "ds" / "laptop_000000.json").read_text())
@@ -159,16 +238,42 @@ def test_cli_predict_rgbd_and_errors(tiny_run, tmp_path, capsys):
     s, view = make_sample(cfg, 0, return_view=True)
     write_png(tmp_path / "d.png", view.depth_mm)
     write_png(tmp_path / "m.png", view.mask)
-    (tmp_path / "K.json").write_text(json.dumps({"fx": s["intrinsics"][0], "fy": s["intrinsics"][1], "cx": s["intrinsics"][2], "cy": s["intrinsics"][3]}))
-    assert main(["predict", "--model", str(tiny_run), "--depth", str(tmp_path / "d.png"), "--mask", str(tmp_path / "m.png"),
-                 "--mask-label", "0", "1", "--intrinsics", str(tmp_path / "K.json"), "--out", str(tmp_path / "r.json"), "--pairs", "1000"]) == 0
+    (tmp_path / "K.json").write_text(
+        json.dumps({"fx": s["intrinsics"][0], "fy": s["intrinsics"][1], "cx": s["intrinsics"][2], "cy": s["intrinsics"][3]})
+    )
+    assert (
+        main(
+            [
+                "predict",
+                "--model",
+                str(tiny_run),
+                "--depth",
+                str(tmp_path / "d.png"),
+                "--mask",
+                str(tmp_path / "m.png"),
+                "--mask-label",
+                "0",
+                "1",
+                "--intrinsics",
+                str(tmp_path / "K.json"),
+                "--out",
+                str(tmp_path / "r.json"),
+                "--pairs",
+                "1000",
+            ]
+        )
+        == 0
+    )
     assert json.loads((tmp_path / "r.json").read_text())["num_points"] > 100
     assert main(["predict", "--model", str(tiny_run), "--depth", str(tmp_path / "d.png"), "--out", str(tmp_path / "r.json")]) == 2
     assert "--intrinsics" in capsys.readouterr().err
     assert main(["predict", "--model", str(tmp_path / "nope"), "--input", "x.npy", "--out", str(tmp_path / "r.json")]) == 2
     assert "no model" in capsys.readouterr().err
     (tmp_path / "broken.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 100\n")
-    assert main(["predict", "--model", str(tiny_run), "--input", str(tmp_path / "broken.ply"), "--out", str(tmp_path / "r.json")]) == 2
+    assert (
+        main(["predict", "--model", str(tiny_run), "--input", str(tmp_path / "broken.ply"), "--out", str(tmp_path / "r.json")])
+        == 2
+    )
     err = capsys.readouterr().err
     assert "broken.ply" in err and "Traceback" not in err
 
@@ -198,7 +303,12 @@ def test_refinement_default_comes_from_the_model(tiny_run, tmp_path, sample):
     assert Estimator.load(run, refine=False).refine is False
     out = tmp_path / "r.json"
     np.save(tmp_path / "cloud.npy", sample["points"])
-    assert main(["predict", "--model", str(run), "--input", str(tmp_path / "cloud.npy"), "--out", str(out), "--no-refine", "--quiet"]) == 0
+    assert (
+        main(
+            ["predict", "--model", str(run), "--input", str(tmp_path / "cloud.npy"), "--out", str(out), "--no-refine", "--quiet"]
+        )
+        == 0
+    )
     assert main(["predict", "--model", str(run), "--input", str(tmp_path / "cloud.npy"), "--out", str(out), "--quiet"]) == 0
 
 

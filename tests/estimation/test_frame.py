@@ -16,7 +16,7 @@ def test_each_instance_estimated_by_its_model(laptop_and_mug_frame, tmp_path):
     assert [(o.instance_id, o.model) for o in fr.objects] == [(1, "mug"), (2, "laptop")]
     mug, laptop = fr.results
     assert mug.category == "mug" and laptop.category == "laptop" and len(laptop.joints) == 1
-    for res, truth in zip(fr.results, frame["objects"]):
+    for res, truth in zip(fr.results, frame["objects"], strict=False):
         t_err = np.linalg.norm(res.cam_from_part[0, :3, 3] - truth["cam_from_part"][0, :3, 3])
         assert t_err < 0.05, t_err  # each object found where it is (not the other one)
     assert rotation_angle_deg(laptop.cam_from_part[0, :3, :3], frame["objects"][1]["cam_from_part"][0, :3, :3]) < 20

@@ -12,8 +12,10 @@ def _result() -> PoseResult:
     T[:3, 3] = [0.1, -0.2, 1.5]
     return PoseResult(
         category="laptop",
-        parts=[PartEstimate(0, "base", T, np.array([0.3, 0.02, 0.2]), 0.8, "none", 900),
-               PartEstimate(1, "lid", T.copy(), np.array([0.3, 0.01, 0.2]), 0.7, "none", 800)],
+        parts=[
+            PartEstimate(0, "base", T, np.array([0.3, 0.02, 0.2]), 0.8, "none", 900),
+            PartEstimate(1, "lid", T.copy(), np.array([0.3, 0.01, 0.2]), 0.7, "none", 800),
+        ],
         joints=[JointEstimate("revolute", 0, 1, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), 1.2, 0.9)],
         part_labels=np.array([0, 1, -1, 1]),
         timings_ms={"total": 12.5},

@@ -29,8 +29,18 @@ SHIFT_THRESHOLDS_CM = [2, 5]
 def get_3d_bbox(scale):
     """(3, 8): the corners of a box of full extents ``scale`` centred on the origin, one per column."""
     sx, sy, sz = (float(v) / 2 for v in scale)
-    corners = np.array([[+sx, +sy, +sz], [+sx, +sy, -sz], [-sx, +sy, +sz], [-sx, +sy, -sz],
-                        [+sx, -sy, +sz], [+sx, -sy, -sz], [-sx, -sy, +sz], [-sx, -sy, -sz]])
+    corners = np.array(
+        [
+            [+sx, +sy, +sz],
+            [+sx, +sy, -sz],
+            [-sx, +sy, +sz],
+            [-sx, +sy, -sz],
+            [+sx, -sy, +sz],
+            [+sx, -sy, -sz],
+            [-sx, -sy, +sz],
+            [-sx, -sy, -sz],
+        ]
+    )
     return corners.transpose()
 
 
@@ -43,8 +53,7 @@ def transform_coordinates_3d(coordinates, RT):
 
 
 def y_rotation_matrix(theta):
-    return np.array([[np.cos(theta), 0, np.sin(theta), 0], [0, 1, 0, 0],
-                     [-np.sin(theta), 0, np.cos(theta), 0], [0, 0, 0, 1]])
+    return np.array([[np.cos(theta), 0, np.sin(theta), 0], [0, 1, 0, 0], [-np.sin(theta), 0, np.cos(theta), 0], [0, 0, 0, 1]])
 
 
 def compute_3d_iou_new(RT_1, RT_2, scales_1, scales_2, handle_visibility, class_name_1, class_name_2):
@@ -67,7 +76,8 @@ def compute_3d_iou_new(RT_1, RT_2, scales_1, scales_2, handle_visibility, class_
         return intersections / union
 
     symmetric = (class_name_1 in ["bottle", "bowl", "can"] and class_name_1 == class_name_2) or (
-        class_name_1 == "mug" and class_name_1 == class_name_2 and handle_visibility == 0)
+        class_name_1 == "mug" and class_name_1 == class_name_2 and handle_visibility == 0
+    )
     if symmetric:
         n = 20
         max_iou = 0
@@ -88,8 +98,18 @@ def exact_3d_iou(RT_1, RT_2, scales_1, scales_2, handle_visibility, class_name_1
     return box_iou_3d(RT_2, scales_2, RT_1, scales_1)
 
 
-def compute_3d_matches(gt_class_ids, gt_RTs, gt_scales, gt_handle_visibility, pred_class_ids, pred_scores,
-                       pred_RTs, pred_scales, iou_3d_thresholds, iou_function):
+def compute_3d_matches(
+    gt_class_ids,
+    gt_RTs,
+    gt_scales,
+    gt_handle_visibility,
+    pred_class_ids,
+    pred_scores,
+    pred_RTs,
+    pred_scales,
+    iou_3d_thresholds,
+    iou_function,
+):
     num_pred = len(pred_class_ids)
     num_gt = len(gt_class_ids)
     indices = np.zeros(0)
@@ -102,8 +122,15 @@ def compute_3d_matches(gt_class_ids, gt_RTs, gt_scales, gt_handle_visibility, pr
     overlaps = np.zeros((num_pred, num_gt), dtype=np.float32)
     for i in range(num_pred):
         for j in range(num_gt):
-            overlaps[i, j] = iou_function(pred_RTs[i], gt_RTs[j], pred_scales[i, :], gt_scales[j],
-                                          gt_handle_visibility[j], CLASSES[pred_class_ids[i]], CLASSES[gt_class_ids[j]])
+            overlaps[i, j] = iou_function(
+                pred_RTs[i],
+                gt_RTs[j],
+                pred_scales[i, :],
+                gt_scales[j],
+                gt_handle_visibility[j],
+                CLASSES[pred_class_ids[i]],
+                CLASSES[gt_class_ids[j]],
+            )
     pred_matches = -1 * np.ones([len(iou_3d_thresholds), num_pred])
     gt_matches = -1 * np.ones([len(iou_3d_thresholds), num_gt])
     for s, iou_thres in enumerate(iou_3d_thresholds):
@@ -213,8 +240,17 @@ def nocs_map(records, iou="nocs", use_matches_for_pose=True):
             cls_pred_ids, cls_pred_RTs, cls_pred_scales = pred_class_ids[p], pred_RTs[p], pred_scales[p]
             cls_pred_scores = pred_scores[p]
             iou_gt_match, iou_pred_match, _, indices = compute_3d_matches(
-                cls_gt_ids, cls_gt_RTs, cls_gt_scales, cls_gt_handle, cls_pred_ids, cls_pred_scores, cls_pred_RTs,
-                cls_pred_scales, IOU_THRESHOLDS, iou_function)
+                cls_gt_ids,
+                cls_gt_RTs,
+                cls_gt_scales,
+                cls_gt_handle,
+                cls_pred_ids,
+                cls_pred_scores,
+                cls_pred_RTs,
+                cls_pred_scales,
+                IOU_THRESHOLDS,
+                iou_function,
+            )
             if len(indices):
                 cls_pred_ids, cls_pred_RTs = cls_pred_ids[indices], cls_pred_RTs[indices]
                 cls_pred_scores = cls_pred_scores[indices]
@@ -231,7 +267,8 @@ def nocs_map(records, iou="nocs", use_matches_for_pose=True):
             pose_gt_match, pose_pred_match = compute_RT_matches(RT_overlaps, DEGREE_THRESHOLDS, SHIFT_THRESHOLDS_CM)
             pose_pred_matches[cls_id] = np.concatenate((pose_pred_matches[cls_id], pose_pred_match), axis=-1)
             pose_pred_scores[cls_id] = np.concatenate(
-                (pose_pred_scores[cls_id], np.tile(cls_pred_scores, (n_deg, n_shift, 1))), axis=-1)
+                (pose_pred_scores[cls_id], np.tile(cls_pred_scores, (n_deg, n_shift, 1))), axis=-1
+            )
             pose_gt_matches[cls_id] = np.concatenate((pose_gt_matches[cls_id], pose_gt_match), axis=-1)
     out = {}
     for cls_id, name in enumerate(CLASSES):
@@ -240,12 +277,16 @@ def nocs_map(records, iou="nocs", use_matches_for_pose=True):
         row = {}
         for s, thr in enumerate(IOU_THRESHOLDS[1:], start=1):
             row[f"3D{round(thr * 100)}"] = compute_ap_from_matches_scores(
-                iou_pred_matches[cls_id][s], iou_pred_scores[cls_id][s], iou_gt_matches[cls_id][s])
+                iou_pred_matches[cls_id][s], iou_pred_scores[cls_id][s], iou_gt_matches[cls_id][s]
+            )
         for d, deg in enumerate(DEGREE_THRESHOLDS):
             for s, cm in enumerate(SHIFT_THRESHOLDS_CM):
                 gt = pose_gt_matches[cls_id][d, s]
-                row[f"{deg}deg{cm}cm"] = compute_ap_from_matches_scores(
-                    pose_pred_matches[cls_id][d, s], pose_pred_scores[cls_id][d, s], gt) if len(gt) else 0.0
+                row[f"{deg}deg{cm}cm"] = (
+                    compute_ap_from_matches_scores(pose_pred_matches[cls_id][d, s], pose_pred_scores[cls_id][d, s], gt)
+                    if len(gt)
+                    else 0.0
+                )
         out[name] = row
     metrics = ["3D50", "3D75", "5deg2cm", "5deg5cm", "10deg2cm", "10deg5cm"]
     mean = {m: float(np.mean([out[c][m] for c in out])) for m in metrics}

@@ -6,17 +6,17 @@ import json
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from tests_support import measured_priors
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
+from ucope.estimation.result import JointEstimate, PartEstimate, PoseResult
 from ucope.eval.evaluate import EVAL_FORMAT, evaluate, format_report, mug_handle_visible, rigid_figures, sample_errors
 from ucope.model.config import ModelConfig
 from ucope.vocab import JointType
-from tests_support import measured_priors
-from ucope.estimation.result import JointEstimate, PartEstimate, PoseResult
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def samples(category: str, n: int = 6) -> tuple:
     cfg = GenerateConfig(category=category, split="test", num=n, max_points=800, views_per_instance=1)
     return tuple(make_sample(cfg, i) for i in range(n))
@@ -38,14 +38,34 @@ class Oracle:
             T = np.array(s["cam_from_part"][k], np.float64)
             T[:3, :3] = T[:3, :3] @ self.R
             T[:3, 3] += self.shift
-            parts.append(PartEstimate(index=k, label=self.cfg.part_names[k], cam_from_part=T, size_m=np.array(s["size_m"][k]),
-                                      score=0.9, symmetry=self.cfg.priors.parts[k].symmetry))
-        joints = [JointEstimate(type=jp.type.label, parent=jp.parent, child=jp.child,
-                                pivot_m=np.array(s["joint_pivot"][j]) if jp.type == JointType.REVOLUTE else None,
-                                axis=np.array(s["joint_axis"][j]), state=float(s["joint_state"][j]))
-                  for j, jp in enumerate(self.cfg.priors.joints)]
-        return PoseResult(category=self.cfg.category, parts=parts, joints=joints, part_labels=np.asarray(s["part_labels"]),
-                          timings_ms={"total": 12.0, "voting": 5.0})
+            parts.append(
+                PartEstimate(
+                    index=k,
+                    label=self.cfg.part_names[k],
+                    cam_from_part=T,
+                    size_m=np.array(s["size_m"][k]),
+                    score=0.9,
+                    symmetry=self.cfg.priors.parts[k].symmetry,
+                )
+            )
+        joints = [
+            JointEstimate(
+                type=jp.type.label,
+                parent=jp.parent,
+                child=jp.child,
+                pivot_m=np.array(s["joint_pivot"][j]) if jp.type == JointType.REVOLUTE else None,
+                axis=np.array(s["joint_axis"][j]),
+                state=float(s["joint_state"][j]),
+            )
+            for j, jp in enumerate(self.cfg.priors.joints)
+        ]
+        return PoseResult(
+            category=self.cfg.category,
+            parts=parts,
+            joints=joints,
+            part_labels=np.asarray(s["part_labels"]),
+            timings_ms={"total": 12.0, "voting": 5.0},
+        )
 
 
 @pytest.mark.parametrize("category", ["laptop", "drawer", "mug"])
@@ -166,18 +186,43 @@ def test_cli_eval_writes_a_report_and_prints_the_table(tmp_path, capsys, head):
     from ucope.model.factory import build_model
     from ucope.model.pointnet2 import PointNet2Config
 
-    cfg = ModelConfig.default(measured_priors("laptop", samples("laptop")), size="full", head=head,
-                                   encoder=PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8)),
-                                   num_points=256, hidden=16)
+    cfg = ModelConfig.default(
+        measured_priors("laptop", samples("laptop")),
+        size="full",
+        head=head,
+        encoder=PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8)),
+        num_points=256,
+        hidden=16,
+    )
     torch.manual_seed(0)
     save_model(build_model(cfg), tmp_path / "run")
-    assert main(["generate", "--category", "laptop", "--split", "test", "--num", "3", "--out", str(tmp_path / "data"), "--quiet"]) == 0
-    rc = main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "data"), "--out", str(tmp_path / "r.json"),
-               "--num", "2", "--pairs", "500", "--quiet"])
+    assert (
+        main(["generate", "--category", "laptop", "--split", "test", "--num", "3", "--out", str(tmp_path / "data"), "--quiet"])
+        == 0
+    )
+    rc = main(
+        [
+            "eval",
+            "--model",
+            str(tmp_path / "run"),
+            "--data",
+            str(tmp_path / "data"),
+            "--out",
+            str(tmp_path / "r.json"),
+            "--num",
+            "2",
+            "--pairs",
+            "500",
+            "--quiet",
+        ]
+    )
     assert rc == 0
     out = capsys.readouterr().out
     assert "rotation error (deg)" in out and "joint axis error (deg)" in out
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["head"] == head and rep["data"]["num_samples"] == 2 and rep["settings"]["num_pairs"] == 500
     assert rep["command"].startswith("ucope eval --model") and len(rep["samples"]) == 2
-    assert main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.json")]) == 2
+    assert (
+        main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.json")])
+        == 2
+    )

@@ -45,7 +45,6 @@ def pose(R=None, t=(0.0, 0.0, 1.0)) -> np.ndarray:
 # --------------------------------------------------------------------------------------------------
 
 
-
 def test_average_precision_hand_cases():
     # sorted: TP, FP, TP, TP with 3 GT: precisions 1, 1/2, 2/3, 3/4 at recalls 1/3, 1/3, 2/3, 1;
     # envelope 1, 3/4, 3/4 -> AP = 1/3 * 1 + 1/3 * 3/4 + 1/3 * 3/4 = 5/6
@@ -82,21 +81,33 @@ def test_compute_map_hand_built_set():
     bottle_T = pose(rot(X, 20), (0.0, 0.3, 1.2))
     bottle_size = [0.06, 0.2, 0.08]
     records = [
-        {"gt": [cube_gt((0, 0, 1)), {"class": "bottle", "cam_from_object": bottle_T, "size_m": bottle_size}],
-         "pred": [
-             {**cube_gt((0, 0, 1)), "score": 0.9},
-             {**cube_gt((0, 0, 1)), "score": 0.8},
-             {"class": "bottle", "cam_from_object": bottle_T @ pose(rot(Y, 40), (0, 0, 0)), "size_m": bottle_size,
-              "score": 0.5},
-         ]},
-        {"gt": [cube_gt((-0.3, 0, 1)), cube_gt((0.3, 0, 1))],
-         "pred": [
-             {**cube_gt((-0.27, 0, 1)), "score": 0.7},
-             {"class": "camera", "cam_from_object": pose(rot(Z, 90), (0.3, 0, 1)), "size_m": [0.1] * 3, "score": 0.6},
-         ]},
-        {"gt": [],
-         "pred": [{**cube_gt((0, 0, 1)), "score": 0.95},
-                  {"class": "can", "cam_from_object": pose(), "size_m": [0.07, 0.12, 0.07], "score": 0.9}]},
+        {
+            "gt": [cube_gt((0, 0, 1)), {"class": "bottle", "cam_from_object": bottle_T, "size_m": bottle_size}],
+            "pred": [
+                {**cube_gt((0, 0, 1)), "score": 0.9},
+                {**cube_gt((0, 0, 1)), "score": 0.8},
+                {
+                    "class": "bottle",
+                    "cam_from_object": bottle_T @ pose(rot(Y, 40), (0, 0, 0)),
+                    "size_m": bottle_size,
+                    "score": 0.5,
+                },
+            ],
+        },
+        {
+            "gt": [cube_gt((-0.3, 0, 1)), cube_gt((0.3, 0, 1))],
+            "pred": [
+                {**cube_gt((-0.27, 0, 1)), "score": 0.7},
+                {"class": "camera", "cam_from_object": pose(rot(Z, 90), (0.3, 0, 1)), "size_m": [0.1] * 3, "score": 0.6},
+            ],
+        },
+        {
+            "gt": [],
+            "pred": [
+                {**cube_gt((0, 0, 1)), "score": 0.95},
+                {"class": "can", "cam_from_object": pose(), "size_m": [0.07, 0.12, 0.07], "score": 0.9},
+            ],
+        },
     ]
     res = compute_map(records)
     json.dumps(res, allow_nan=False)
@@ -136,8 +147,10 @@ def test_compute_map_greedy_match_takes_the_best_gt():
     (Taking the first passing GT, gt1, or matching p2 first, would give AP 1.)
     """
     gts = [{"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1]} for x in (0.0, 0.3)]
-    preds = [{"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1], "score": s}
-             for x, s in ((0.35, 0.8), (0.2, 0.9))]  # listed in the wrong order: matching must sort by score
+    preds = [
+        {"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1], "score": s}
+        for x, s in ((0.35, 0.8), (0.2, 0.9))
+    ]  # listed in the wrong order: matching must sort by score
     res = compute_map([{"gt": gts, "pred": preds}], iou_thresholds=[0.5], pose_thresholds_deg_cm=[(5, 30)])
     assert res["metrics"] == ["3D50", "5deg30cm"]
     assert res["per_class"]["camera"]["3D50"] == pytest.approx(0.5)
@@ -157,16 +170,18 @@ def test_compute_map_mug_handle_special_case():
     size = [0.12, 0.1, 0.09]
     T = pose(None, (0.0, 0.0, 0.8))
     pred = {"class": "mug", "cam_from_object": T @ pose(rot(Y, 30), (0, 0, 0)), "size_m": size, "score": 1.0}
-    hidden = compute_map([{"gt": [{"class": "mug", "cam_from_object": T, "size_m": size, "handle_visible": False}],
-                           "pred": [pred]}], iou_thresholds=[0.75])
-    visible = compute_map([{"gt": [{"class": "mug", "cam_from_object": T, "size_m": size}], "pred": [pred]}],
-                          iou_thresholds=[0.75])
+    hidden = compute_map(
+        [{"gt": [{"class": "mug", "cam_from_object": T, "size_m": size, "handle_visible": False}], "pred": [pred]}],
+        iou_thresholds=[0.75],
+    )
+    visible = compute_map(
+        [{"gt": [{"class": "mug", "cam_from_object": T, "size_m": size}], "pred": [pred]}], iou_thresholds=[0.75]
+    )
     # handle not visible: symmetric about y, the 30 degree turn costs nothing
     assert hidden["mean"]["5deg2cm"] == pytest.approx(1.0)
     assert hidden["mean"]["3D75"] == pytest.approx(1.0)
     # handle visible (the default): a 30 degree error
     assert visible["mean"]["10deg5cm"] == 0.0
-
 
 
 # --------------------------------------------------------------------------------------------------
@@ -208,9 +223,19 @@ def _baseline_like_records(n=12, passing=(0, 1, 2, 3, 4)):
     for i in range(n):
         t = (0.05 * i, 0.0, 1.0)
         shift = (0.0, 0.0, 0.0) if i in passing else (0.0, 0.0, 0.06)
-        records.append({"gt": [{"class": "camera", "cam_from_object": pose(None, t), "size_m": [0.3, 0.3, 0.3]}],
-                        "pred": [{"class": "camera", "cam_from_object": pose(rot(Y, 1.0), np.add(t, shift)),
-                                  "size_m": [0.3, 0.3, 0.3], "score": 1.0}]})
+        records.append(
+            {
+                "gt": [{"class": "camera", "cam_from_object": pose(None, t), "size_m": [0.3, 0.3, 0.3]}],
+                "pred": [
+                    {
+                        "class": "camera",
+                        "cam_from_object": pose(rot(Y, 1.0), np.add(t, shift)),
+                        "size_m": [0.3, 0.3, 0.3],
+                        "score": 1.0,
+                    }
+                ],
+            }
+        )
     return records
 
 
@@ -234,8 +259,9 @@ def test_map_is_order_free_with_several_objects_per_image():
     """Two tied predictions in one image competing for the same GT: who gets it must not follow list order."""
     gts = [{"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1]} for x in (0.0, 0.3)]
     # p1 passes only gt1 at 3D50; p2 passes both but prefers gt1 (higher IoU)
-    preds = [{"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1], "score": 0.7}
-             for x in (-0.25, 0.1)]
+    preds = [
+        {"class": "camera", "cam_from_object": pose(None, (x, 0, 3)), "size_m": [1, 1, 1], "score": 0.7} for x in (-0.25, 0.1)
+    ]
     records = [{"gt": gts, "pred": preds}, {"gt": gts[:1], "pred": [dict(preds[1], score=0.9)]}]
     ref = compute_map(records, iou_thresholds=[0.5], pose_thresholds_deg_cm=[(5, 20)])
     for g, p in itertools.product(itertools.permutations(gts), itertools.permutations(preds)):
@@ -299,8 +325,9 @@ def test_the_worked_example_of_docs_metrics_md():
         gt = pose(rot(Y, 45.0), t)
         for extra in (20.0, 45.0):
             pred = pose(rot(Y, 45.0 + extra), t)
-            rows.append([box_iou_3d(pred, size, gt, size), axis_aligned(pred, size, gt, size),
-                         nocs_reference_iou(pred, size, gt, size)])
+            rows.append(
+                [box_iou_3d(pred, size, gt, size), axis_aligned(pred, size, gt, size), nocs_reference_iou(pred, size, gt, size)]
+            )
     expected = [[0.756, 0.865, 0.698], [0.639, 0.480, 0.445], [0.756, 0.865, 0.749], [0.639, 0.480, 0.527]]
     assert np.round(rows, 3).tolist() == expected
     doc = (Path(__file__).resolve().parents[2] / "docs" / "metrics.md").read_text()
@@ -337,8 +364,14 @@ def test_nocs_protocol_gates_pose_metrics_at_iou_above_a_tenth():
 # reference figures (BOP-toolkit style regression tests)
 # --------------------------------------------------------------------------------------------------
 
-SIZES = {"bottle": (0.07, 0.2, 0.07), "bowl": (0.16, 0.07, 0.16), "camera": (0.12, 0.09, 0.08),
-         "can": (0.07, 0.12, 0.07), "laptop": (0.32, 0.22, 0.26), "mug": (0.13, 0.1, 0.09)}
+SIZES = {
+    "bottle": (0.07, 0.2, 0.07),
+    "bowl": (0.16, 0.07, 0.16),
+    "camera": (0.12, 0.09, 0.08),
+    "can": (0.07, 0.12, 0.07),
+    "laptop": (0.32, 0.22, 0.26),
+    "mug": (0.13, 0.1, 0.09),
+}
 
 
 def fixed_records():
@@ -366,15 +399,22 @@ def fixed_records():
                 P = np.eye(4)
                 P[:3, :3] = R @ dR
                 P[:3, 3] = T[:3, 3] + rs.normal(size=3) * rs.choice([0.005, 0.015, 0.03])
-                preds.append({"class": cls, "cam_from_object": P.tolist(),
-                              "size_m": (size * rs.uniform(0.85, 1.15, 3)).tolist(), "score": float(rs.uniform(0.05, 1.0))})
+                preds.append(
+                    {
+                        "class": cls,
+                        "cam_from_object": P.tolist(),
+                        "size_m": (size * rs.uniform(0.85, 1.15, 3)).tolist(),
+                        "score": float(rs.uniform(0.05, 1.0)),
+                    }
+                )
         if rs.rand() < 0.4:  # a stray prediction of some class
             cls = classes[rs.randint(len(classes))]
             P = np.eye(4)
             P[:3, :3] = Rotation.from_rotvec(rs.normal(size=3)).as_matrix()
             P[:3, 3] = [rs.uniform(-0.3, 0.3), rs.uniform(-0.2, 0.2), rs.uniform(0.6, 1.2)]
-            preds.append({"class": cls, "cam_from_object": P.tolist(), "size_m": list(SIZES[cls]),
-                          "score": float(rs.uniform(0.05, 1.0))})
+            preds.append(
+                {"class": cls, "cam_from_object": P.tolist(), "size_m": list(SIZES[cls]), "score": float(rs.uniform(0.05, 1.0))}
+            )
         records.append({"gt": gts, "pred": preds})
     return records
 

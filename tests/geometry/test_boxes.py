@@ -27,8 +27,9 @@ def _random_pose(rng: np.random.Generator, spread: float = 1.0) -> np.ndarray:
     return make_transform(random_rotation(rng), rng.uniform(-spread, spread, 3))
 
 
-def mc_iou(T_a: np.ndarray, size_a: np.ndarray, T_b: np.ndarray, size_b: np.ndarray,
-           rng: np.random.Generator, n: int = 200_000) -> float:
+def mc_iou(
+    T_a: np.ndarray, size_a: np.ndarray, T_b: np.ndarray, size_b: np.ndarray, rng: np.random.Generator, n: int = 200_000
+) -> float:
     """Monte Carlo IoU: uniform samples in box A's region, inside tests in each box's own frame."""
     half_a, half_b = 0.5 * np.asarray(size_a), 0.5 * np.asarray(size_b)
     p_a = rng.uniform(-half_a, half_a, size=(n, 3))  # uniform in A's bounding region, A frame
@@ -51,10 +52,18 @@ def mc_iou(T_a: np.ndarray, size_a: np.ndarray, T_b: np.ndarray, size_b: np.ndar
 
 def test_corner_order_axis_aligned_unit_box():
     corners = box_corners(np.eye(4), np.ones(3))
-    expected = np.array([
-        [-0.5, -0.5, -0.5], [-0.5, -0.5, 0.5], [-0.5, 0.5, -0.5], [-0.5, 0.5, 0.5],
-        [0.5, -0.5, -0.5], [0.5, -0.5, 0.5], [0.5, 0.5, -0.5], [0.5, 0.5, 0.5],
-    ])
+    expected = np.array(
+        [
+            [-0.5, -0.5, -0.5],
+            [-0.5, -0.5, 0.5],
+            [-0.5, 0.5, -0.5],
+            [-0.5, 0.5, 0.5],
+            [0.5, -0.5, -0.5],
+            [0.5, -0.5, 0.5],
+            [0.5, 0.5, -0.5],
+            [0.5, 0.5, 0.5],
+        ]
+    )
     assert corners.shape == (8, 3)
     np.testing.assert_allclose(corners, expected, atol=0)
 
@@ -279,7 +288,7 @@ def test_exact_iou_matches_monte_carlo():
     assert np.count_nonzero(exact > 0.7) >= 5
     assert np.count_nonzero(exact < 0.2) >= 5
     # the batch function agrees with the scalar one
-    T_a, s_a, T_b, s_b = (np.stack(x) for x in zip(*pairs))
+    T_a, s_a, T_b, s_b = (np.stack(x) for x in zip(*pairs, strict=False))
     batch = box_iou_3d_batch(T_a, s_a, T_b, s_b)
     assert batch.shape == (len(pairs),)
     np.testing.assert_allclose(batch, exact, atol=1e-12)
@@ -293,18 +302,21 @@ def test_exact_iou_matches_monte_carlo():
 GOOD = (np.eye(4), np.ones(3), np.eye(4), np.ones(3))
 
 
-@pytest.mark.parametrize("index, bad, name", [
-    (0, np.eye(3), "cam_from_box_a"),
-    (0, np.stack([np.eye(4)] * 2), "cam_from_box_a"),
-    (1, np.ones(2), "size_a"),
-    (2, np.full((4, 4), np.nan), "cam_from_box_b"),
-    (3, np.array([1.0, np.nan, 1.0]), "size_b"),
-    (3, np.array([1.0, 0.0, 1.0]), "size_b"),
-    (1, np.array([1.0, -1.0, 1.0]), "size_a"),
-    (1, np.array([1.0, np.inf, 1.0]), "size_a"),
-    (0, np.diag([2.0, 1.0, 1.0, 1.0]), "cam_from_box_a"),  # not rigid
-    (1, "abc", "size_a"),
-])
+@pytest.mark.parametrize(
+    "index, bad, name",
+    [
+        (0, np.eye(3), "cam_from_box_a"),
+        (0, np.stack([np.eye(4)] * 2), "cam_from_box_a"),
+        (1, np.ones(2), "size_a"),
+        (2, np.full((4, 4), np.nan), "cam_from_box_b"),
+        (3, np.array([1.0, np.nan, 1.0]), "size_b"),
+        (3, np.array([1.0, 0.0, 1.0]), "size_b"),
+        (1, np.array([1.0, -1.0, 1.0]), "size_a"),
+        (1, np.array([1.0, np.inf, 1.0]), "size_a"),
+        (0, np.diag([2.0, 1.0, 1.0, 1.0]), "cam_from_box_a"),  # not rigid
+        (1, "abc", "size_a"),
+    ],
+)
 def test_bad_input_raises(index, bad, name):
     args = list(GOOD)
     args[index] = bad

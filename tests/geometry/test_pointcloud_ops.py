@@ -31,9 +31,11 @@ def test_fps_spreads_points(rng):
     pts = rng.uniform(size=(2000, 3))
     fps = pts[farthest_point_sampling(pts, 64)]
     rnd = pts[:64]
+
     def min_gap(p):
         d = np.linalg.norm(p[:, None] - p[None], axis=-1) + np.eye(len(p)) * 9
         return d.min()
+
     assert min_gap(fps) > 2 * min_gap(rnd)
 
 
@@ -47,7 +49,9 @@ def test_fps_bad_input():
 def test_random_subset_pads_and_is_seeded():
     a = random_subset(10, 25, np.random.default_rng(0))
     assert len(a) == 25 and set(a.tolist()) == set(range(10))
-    np.testing.assert_array_equal(random_subset(100, 10, np.random.default_rng(3)), random_subset(100, 10, np.random.default_rng(3)))
+    np.testing.assert_array_equal(
+        random_subset(100, 10, np.random.default_rng(3)), random_subset(100, 10, np.random.default_rng(3))
+    )
 
 
 def test_normals_of_a_plane_face_the_camera(rng):

@@ -1,23 +1,22 @@
 import functools
-import math
 
 import numpy as np
 import pytest
 import torch
+from tests_support import measured_priors
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.model.batch import TrainingItems, batch_to, collate_items, sample_pairs
 from ucope.model.config import ModelConfig
 from ucope.model.network import UCOPENet
-from ucope.vocab import AXIS_HEADS
-from tests_support import measured_priors
 from ucope.model.pointnet2 import PointNet2Config
+from ucope.vocab import AXIS_HEADS
 
 TINY_ENCODER = PointNet2Config(width=0.25, npoints=(64, 16), radii=(0.15, 0.3), nsamples=(8, 8))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def tiny_samples(category: str, n: int = 8) -> tuple:
     cfg = GenerateConfig(category=category, split="train", num=n, max_points=600, views_per_instance=2)
     return tuple(make_sample(cfg, i) for i in range(n))
@@ -99,7 +98,9 @@ def test_lazy_pair_outputs_equal_the_full_heads(category):
     with torch.no_grad():
         enc = net.encode(b["points"], b["normals"], b["fps_idx"])
         full = net.pair_heads(enc, b["points"], b["normals"], b["pair_idx"])
-        some = net.pair_heads(enc, b["points"], b["normals"], b["pair_idx"], heads=("mu_logits", "part_score"), return_hidden=True)
+        some = net.pair_heads(
+            enc, b["points"], b["normals"], b["pair_idx"], heads=("mu_logits", "part_score"), return_hidden=True
+        )
         assert set(some) == {"mu_logits", "part_score", "pair_hidden"}
         torch.testing.assert_close(some["mu_logits"], full["mu_logits"])
         torch.testing.assert_close(some["part_score"], full["part_score"])
@@ -171,7 +172,7 @@ def test_batch_items_are_deterministic_and_epoch_dependent():
     a, b = items[2], items[2]
     for k in ("points", "pair_idx", "part_labels"):
         assert torch.equal(a[k], b[k])
-    assert all(torch.equal(x, y) for x, y in zip(a["fps_idx"], b["fps_idx"]))
+    assert all(torch.equal(x, y) for x, y in zip(a["fps_idx"], b["fps_idx"], strict=False))
     items.set_epoch(1)
     assert not torch.equal(items[2]["pair_idx"], a["pair_idx"])
     assert a["points"].shape == (cfg.num_points, 3)
@@ -197,7 +198,9 @@ def test_config_round_trip_and_errors():
     import json
 
     back = ModelConfig.from_dict(json.loads(json.dumps(d)), cfg.priors.tensors())
-    assert back == cfg and all(np.array_equal(a, b) for a, b in zip(back.priors.shape_templates, cfg.priors.shape_templates))
+    assert back == cfg and all(
+        np.array_equal(a, b) for a, b in zip(back.priors.shape_templates, cfg.priors.shape_templates, strict=False)
+    )
     assert [(j.parent, j.child, j.type.label) for j in cfg.priors.joints] == [(0, 1, "revolute"), (0, 2, "revolute")]
     with pytest.raises(InputError, match="unknown model config fields"):
         ModelConfig.from_dict({**d, "bogus": 1})

@@ -146,7 +146,7 @@ def test_numpy_fps_indices_levels():
     np.testing.assert_array_equal(idx[1], farthest_point_sampling(np.take_along_axis(xyz, idx[0][..., None], 1), 16))
     single = numpy_fps_indices(xyz[1], (64, 16))
     assert [s.shape for s in single] == [(64,), (16,)]
-    for a, b in zip(single, idx):
+    for a, b in zip(single, idx, strict=False):
         np.testing.assert_array_equal(a, b[1])
 
 
@@ -161,7 +161,7 @@ def test_linear_max_pool_gradient_with_ties():
     y_ref = F.linear(x, w).amax(1)
     ref = torch.autograd.grad(y_ref, (x, w), g)
     assert torch.equal(y, y_ref)
-    for a, b in zip(got, ref):
+    for a, b in zip(got, ref, strict=False):
         assert torch.allclose(a, b)
     assert torch.autograd.gradcheck(_LinearMaxPool.apply, (torch.randn(4, 3, 4, dtype=torch.float64, requires_grad=True), w))
 
@@ -187,7 +187,7 @@ def test_set_abstraction_matches_naive():
     params = [feats, *sa.parameters()]
     got = torch.autograd.grad(out, params, g)
     exp = torch.autograd.grad(ref, params, g)
-    for a, b in zip(got, exp):
+    for a, b in zip(got, exp, strict=False):
         assert torch.allclose(a, b, atol=1e-10)
     # group all: one global feature from [xyz, feats]
     sg = SetAbstraction(None, None, None, 4, (8, 16)).double()

@@ -4,8 +4,8 @@ import math
 
 import pytest
 import torch
-
 from test_network import overfit, tiny_batch, tiny_config
+
 from ucope.errors import InputError
 from ucope.model.checkpoint import load_model, save_model
 from ucope.model.factory import build_model

@@ -1,7 +1,3 @@
-import math
-
-import numpy as np
-import pytest
 import torch
 
 from ucope.geometry.transforms import make_transform, random_rotation

@@ -6,20 +6,32 @@ import sys
 
 import pytest
 import torch
+from test_network import TINY_ENCODER
 
 from ucope.cli.main import main
 from ucope.errors import InputError
 from ucope.model.checkpoint import load_model
 from ucope.model.train import TrainConfig, TrainingError, parameter_digest, train
 
-from test_network import TINY_ENCODER
-
 TINY = dict(encoder=TINY_ENCODER, num_points=256, pairs_per_part=32, hidden=32)
 
 
 def tiny_train_config(out, **kw) -> TrainConfig:
-    base = dict(category="laptop", out=str(out), on_the_fly=True, epoch_size=6, steps=7, batch_size=2, val_samples=2,
-                model_overrides=dict(TINY), log_every=1, val_every=4, checkpoint_every=2, progress=False, threads=1)
+    base = dict(
+        category="laptop",
+        out=str(out),
+        on_the_fly=True,
+        epoch_size=6,
+        steps=7,
+        batch_size=2,
+        val_samples=2,
+        model_overrides=dict(TINY),
+        log_every=1,
+        val_every=4,
+        checkpoint_every=2,
+        progress=False,
+        threads=1,
+    )
     base.update(kw)
     return TrainConfig(**base)
 
@@ -83,16 +95,27 @@ def test_init_from_a_model_fine_tunes_its_weights(tmp_path):
     train(tiny_train_config(tmp_path / "base", steps=3))
     base, _ = load_model(tmp_path / "base")
     # one step at a negligible learning rate: the run starts from the base weights, not from random ones
-    train(tiny_train_config(tmp_path / "tuned", steps=1, lr=1e-12, init_from=str(tmp_path / "base"),
-                            model_overrides=dict(TINY, lambda_seg=1.0, seg_weighting="points")))
+    train(
+        tiny_train_config(
+            tmp_path / "tuned",
+            steps=1,
+            lr=1e-12,
+            init_from=str(tmp_path / "base"),
+            model_overrides=dict(TINY, lambda_seg=1.0, seg_weighting="points"),
+        )
+    )
     tuned, meta = load_model(tmp_path / "tuned")
-    for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values()):
+    for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values(), strict=False):
         assert torch.allclose(a, b, atol=1e-6), k
     assert tuned.cfg.priors == base.cfg.priors  # the outputs stay relative to the base model's statistics
     assert tuned.cfg.lambda_seg == 1.0 and tuned.cfg.seg_weighting == "points"
-    assert meta["info"]["initialised_from"] == {"model": str(tmp_path / "base"), "category": "laptop", "steps": 3,
-                                                "train_time_s": json.loads((tmp_path / "base" / "model_card.json").read_text())["train_time_s"],
-                                                "reinitialised": []}
+    assert meta["info"]["initialised_from"] == {
+        "model": str(tmp_path / "base"),
+        "category": "laptop",
+        "steps": 3,
+        "train_time_s": json.loads((tmp_path / "base" / "model_card.json").read_text())["train_time_s"],
+        "reinitialised": [],
+    }
     with pytest.raises(InputError, match="cannot change"):
         train(tiny_train_config(tmp_path / "wide", init_from=str(tmp_path / "base"), model_overrides=dict(TINY, hidden=48)))
     with pytest.raises(InputError, match="'laptop' model cannot start a 'mug' run"):
@@ -111,26 +134,111 @@ def test_bad_training_arguments_are_named(tmp_path):
 
 
 def test_cli_train_errors_are_one_line(tmp_path, capsys):
-    assert main(["train", "--category", "laptop", "--data", str(tmp_path / "nope"), "--steps", "1", "--out", str(tmp_path / "r")]) == 2
+    assert (
+        main(["train", "--category", "laptop", "--data", str(tmp_path / "nope"), "--steps", "1", "--out", str(tmp_path / "r")])
+        == 2
+    )
     err = capsys.readouterr().err
     assert "ucope train: error:" in err and "does not exist" in err and "Traceback" not in err
 
 
 def test_cli_train_on_a_data_set(tmp_path, capsys):
-    assert main(["generate", "--category", "mug", "--num", "8", "--shard-size", "4", "--max-points", "1500", "--out", str(tmp_path / "d"), "--quiet"]) == 0
-    assert main(["train", "--category", "laptop", "--data", str(tmp_path / "d"), "--steps", "1", "--out", str(tmp_path / "r"), "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "generate",
+                "--category",
+                "mug",
+                "--num",
+                "8",
+                "--shard-size",
+                "4",
+                "--max-points",
+                "1500",
+                "--out",
+                str(tmp_path / "d"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "train",
+                "--category",
+                "laptop",
+                "--data",
+                str(tmp_path / "d"),
+                "--steps",
+                "1",
+                "--out",
+                str(tmp_path / "r"),
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     assert "holds 'mug' samples" in capsys.readouterr().err
-    assert main(["train", "--category", "mug", "--data", str(tmp_path / "d"), "--val-data", str(tmp_path / "d"), "--steps", "2",
-                 "--batch-size", "4", "--val-samples", "4", "--out", str(tmp_path / "r"), "--quiet", "--threads", "1"]) == 0
+    assert (
+        main(
+            [
+                "train",
+                "--category",
+                "mug",
+                "--data",
+                str(tmp_path / "d"),
+                "--val-data",
+                str(tmp_path / "d"),
+                "--steps",
+                "2",
+                "--batch-size",
+                "4",
+                "--val-samples",
+                "4",
+                "--out",
+                str(tmp_path / "r"),
+                "--quiet",
+                "--threads",
+                "1",
+            ]
+        )
+        == 0
+    )
     card = json.loads((tmp_path / "r" / "model_card.json").read_text())
     assert card["steps"] == 2 and card["training_data"]["kind"] == "shards" and card["model_size"] == "slim"
 
 
 def test_torchrun_ddp_two_processes_end_with_identical_parameters(tmp_path):
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2", "-m", "ucope", "train",
-           "--category", "mug", "--on-the-fly", "--epoch-size", "8", "--steps", "3", "--batch-size", "2",
-           "--val-samples", "2", "--checkpoint-every", "2", "--out", str(tmp_path / "ddp"), "--quiet", "--device", "cpu"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "torch.distributed.run",
+        "--standalone",
+        "--nproc_per_node=2",
+        "-m",
+        "ucope",
+        "train",
+        "--category",
+        "mug",
+        "--on-the-fly",
+        "--epoch-size",
+        "8",
+        "--steps",
+        "3",
+        "--batch-size",
+        "2",
+        "--val-samples",
+        "2",
+        "--checkpoint-every",
+        "2",
+        "--out",
+        str(tmp_path / "ddp"),
+        "--quiet",
+        "--device",
+        "cpu",
+    ]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr[-3000:]
     card = json.loads((tmp_path / "ddp" / "model_card.json").read_text())
@@ -149,7 +257,10 @@ def test_augmented_training_learns_a_background_class(tmp_path):
     net, meta = load_model(tmp_path / "aug")
     assert net.cfg.background_class and net.num_classes == 3 and meta["config"]["background_class"]
     assert card["train_config"]["augment"] == 1.0
-    out = net(torch.zeros(1, 256, 3).uniform_(-0.2, 0.2) + torch.tensor([0.0, 0.0, 0.8]), torch.nn.functional.normalize(torch.randn(1, 256, 3), dim=-1))
+    out = net(
+        torch.zeros(1, 256, 3).uniform_(-0.2, 0.2) + torch.tensor([0.0, 0.0, 0.8]),
+        torch.nn.functional.normalize(torch.randn(1, 256, 3), dim=-1),
+    )
     assert out["seg_logits"].shape == (1, 256, 3) and out["masks"].shape == (1, 256, 2)
     rows = [json.loads(x) for x in (tmp_path / "aug" / "metrics.jsonl").read_text().splitlines()]
     assert all(math.isfinite(r["train/loss"]) for r in rows if "train/loss" in r)
@@ -169,8 +280,10 @@ def test_fine_tuning_adds_the_background_class_and_keeps_the_part_rows(tmp_path)
 def test_fine_tuning_with_new_priors_keeps_the_weights_and_measures_the_statistics_anew(tmp_path):
     train(tiny_train_config(tmp_path / "base", steps=2))
     base, _ = load_model(tmp_path / "base")
-    train(tiny_train_config(tmp_path / "tuned", steps=1, lr=1e-12, init_from=str(tmp_path / "base"), new_priors=True, data_seed=7))
+    train(
+        tiny_train_config(tmp_path / "tuned", steps=1, lr=1e-12, init_from=str(tmp_path / "base"), new_priors=True, data_seed=7)
+    )
     tuned, _ = load_model(tmp_path / "tuned")
     assert tuned.cfg.priors != base.cfg.priors and tuned.cfg.priors.num_samples > 0
-    for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values()):
+    for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values(), strict=False):
         assert torch.allclose(a, b, atol=1e-6), k

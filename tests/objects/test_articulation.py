@@ -1,11 +1,11 @@
 import numpy as np
 import pytest
+from tests_support import make_toy_object  # noqa: E402
 
 from ucope.errors import InputError
 from ucope.geometry.transforms import axis_angle_transform
 from ucope.objects.articulation import ArticulatedObject, Joint, Part, build_object, make_part
 from ucope.objects.shapes import box
-from tests_support import make_toy_object  # noqa: E402
 
 
 def test_make_part_centres_the_box():
@@ -104,8 +104,12 @@ def test_scaled_object_scales_every_length_and_keeps_the_frames():
 def test_scaled_prismatic_joint_scales_its_limits():
     base, T0 = make_part("base", box([0.4, 0.1, 0.4]))
     slide, T1 = make_part("slide", box([0.2, 0.05, 0.2], [0.0, 0.1, 0.0]))
-    obj = build_object("toy", "toy/0", [(base, T0), (slide, T1)],
-                       joints=[dict(type="prismatic", parent=0, child=1, pivot=(0, 0.1, 0), axis=(0, 0, 1), limits=(0.0, 0.3), rest=0.1)])
+    obj = build_object(
+        "toy",
+        "toy/0",
+        [(base, T0), (slide, T1)],
+        joints=[dict(type="prismatic", parent=0, child=1, pivot=(0, 0.1, 0), axis=(0, 0, 1), limits=(0.0, 0.3), rest=0.1)],
+    )
     half = obj.scaled(0.5)
     assert half.joints[0].limits == pytest.approx((0.0, 0.15)) and half.joints[0].rest == pytest.approx(0.05)
     np.testing.assert_allclose(half.object_from_part([0.15])[1, :3, 3], 0.5 * obj.object_from_part([0.3])[1, :3, 3])

@@ -88,11 +88,11 @@ def test_scaled_instance_is_the_same_shape_scaled(name):
             obj = make_instance(name, split, i, scale=s)
             assert obj.scale == s and obj.shape_family == base.shape_family and obj.params == base.params
             np.testing.assert_allclose(obj.size_m, s * base.size_m, rtol=1e-12)
-            for pa, pb in zip(obj.parts, base.parts):
+            for pa, pb in zip(obj.parts, base.parts, strict=False):
                 np.testing.assert_allclose(pa.mesh.vertices, s * np.asarray(pb.mesh.vertices), rtol=1e-12, atol=1e-15)
                 np.testing.assert_array_equal(pa.mesh.faces, pb.mesh.faces)
             # joints: the same axes and revolute limits; pivots, prismatic limits and rest states scale
-            for ja, jb in zip(obj.joints, base.joints):
+            for ja, jb in zip(obj.joints, base.joints, strict=False):
                 np.testing.assert_array_equal(ja.axis, jb.axis)
                 np.testing.assert_allclose(ja.pivot, s * jb.pivot, rtol=1e-12, atol=1e-15)
                 k = s if ja.type == "prismatic" else 1.0
@@ -131,14 +131,22 @@ def test_deterministic():
     for split in SPLITS:
         a, b = make_instance("eyeglasses", split, 6), make_instance("eyeglasses", split, 6)
         assert a.params == b.params and a.scale == b.scale and a.shape_family == b.shape_family
-        for pa, pb in zip(a.parts, b.parts):
+        for pa, pb in zip(a.parts, b.parts, strict=False):
             np.testing.assert_array_equal(pa.mesh.vertices, pb.mesh.vertices)
 
 
 @pytest.mark.parametrize(
     "kwargs",
-    [dict(split="toast"), dict(scale=0.0), dict(scale=-1.0), dict(scale=float("nan")), dict(scale=True), dict(scale="2"),
-     dict(family="teapot"), dict(index=-1)],
+    [
+        dict(split="toast"),
+        dict(scale=0.0),
+        dict(scale=-1.0),
+        dict(scale=float("nan")),
+        dict(scale=True),
+        dict(scale="2"),
+        dict(family="teapot"),
+        dict(index=-1),
+    ],
 )
 def test_bad_arguments(kwargs):
     args = dict(category="mug", split="test", index=0) | kwargs

@@ -5,8 +5,6 @@ The modules are imported directly (not through the registry) so these tests run 
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -21,51 +19,64 @@ _CACHE: dict = {}
 # extents of the body's box along an axis: {category: {family: {axis: (lo, hi)}}}, metres.
 DIMS = {
     "bottle": {  # y: height with the cap, x: body diameter
-        "wine": {"y": (0.28, 0.35), "x": (0.068, 0.085)}, "water": {"y": (0.18, 0.33), "x": (0.055, 0.092)},
-        "slim": {"y": (0.19, 0.30), "x": (0.045, 0.062)}, "flask": {"y": (0.17, 0.28), "x": (0.060, 0.080)},
+        "wine": {"y": (0.28, 0.35), "x": (0.068, 0.085)},
+        "water": {"y": (0.18, 0.33), "x": (0.055, 0.092)},
+        "slim": {"y": (0.19, 0.30), "x": (0.045, 0.062)},
+        "flask": {"y": (0.17, 0.28), "x": (0.060, 0.080)},
         "squat": {"y": (0.09, 0.16), "x": (0.060, 0.100)},
     },
     "bowl": {  # x: rim diameter, y: height
-        "round": {"x": (0.105, 0.200), "y": (0.045, 0.095)}, "ramekin": {"x": (0.075, 0.110), "y": (0.038, 0.060)},
-        "shallow": {"x": (0.180, 0.300), "y": (0.030, 0.060)}, "serving": {"x": (0.200, 0.300), "y": (0.080, 0.130)},
+        "round": {"x": (0.105, 0.200), "y": (0.045, 0.095)},
+        "ramekin": {"x": (0.075, 0.110), "y": (0.038, 0.060)},
+        "shallow": {"x": (0.180, 0.300), "y": (0.030, 0.060)},
+        "serving": {"x": (0.200, 0.300), "y": (0.080, 0.130)},
         "footed": {"x": (0.100, 0.180), "y": (0.065, 0.130)},
     },
     "can": {  # x: diameter, y: height
-        "standard": {"x": (0.065, 0.068), "y": (0.115, 0.135)}, "slim": {"x": (0.053, 0.058), "y": (0.088, 0.146)},
-        "tall": {"x": (0.065, 0.068), "y": (0.155, 0.170)}, "food": {"x": (0.065, 0.101), "y": (0.070, 0.120)},
+        "standard": {"x": (0.065, 0.068), "y": (0.115, 0.135)},
+        "slim": {"x": (0.053, 0.058), "y": (0.088, 0.146)},
+        "tall": {"x": (0.065, 0.068), "y": (0.155, 0.170)},
+        "food": {"x": (0.065, 0.101), "y": (0.070, 0.120)},
         "squat": {"x": (0.065, 0.100), "y": (0.035, 0.055)},
     },
     "mug": {  # y: height, z: the cup's widest diameter (the handle sticks out along x only)
-        "straight": {"y": (0.085, 0.120), "z": (0.072, 0.092)}, "conical": {"y": (0.075, 0.120), "z": (0.075, 0.100)},
-        "espresso": {"y": (0.050, 0.068), "z": (0.055, 0.072)}, "cappuccino": {"y": (0.060, 0.080), "z": (0.085, 0.105)},
-        "tall": {"y": (0.120, 0.150), "z": (0.075, 0.095)}, "barrel": {"y": (0.085, 0.125), "z": (0.080, 0.100)},
+        "straight": {"y": (0.085, 0.120), "z": (0.072, 0.092)},
+        "conical": {"y": (0.075, 0.120), "z": (0.075, 0.100)},
+        "espresso": {"y": (0.050, 0.068), "z": (0.055, 0.072)},
+        "cappuccino": {"y": (0.060, 0.080), "z": (0.085, 0.105)},
+        "tall": {"y": (0.120, 0.150), "z": (0.075, 0.095)},
+        "barrel": {"y": (0.085, 0.125), "z": (0.080, 0.100)},
     },
     "camera": {  # x: body width (grip, lens and controls inside it)
-        "dslr": {"x": (0.125, 0.150)}, "mirrorless": {"x": (0.110, 0.135)}, "compact": {"x": (0.095, 0.115)}, "action": {"x": (0.060, 0.075)},
+        "dslr": {"x": (0.125, 0.150)},
+        "mirrorless": {"x": (0.110, 0.135)},
+        "compact": {"x": (0.095, 0.115)},
+        "action": {"x": (0.060, 0.075)},
     },
     "laptop_rigid": {  # x: width (11.6 to 18 inch)
-        "ultrabook": {"x": (0.280, 0.360)}, "mainstream": {"x": (0.270, 0.380)}, "gaming": {"x": (0.350, 0.410)},
-        "rugged": {"x": (0.280, 0.350)}, "wedge": {"x": (0.280, 0.340)},
+        "ultrabook": {"x": (0.280, 0.360)},
+        "mainstream": {"x": (0.270, 0.380)},
+        "gaming": {"x": (0.350, 0.410)},
+        "rugged": {"x": (0.280, 0.350)},
+        "wedge": {"x": (0.280, 0.340)},
     },
 }
 CASES = [(name, fam) for name in MODULES for fam in MODULES[name].SPEC.family_names]
 
 
 def _instances(name, family):
-    """(objects, build seconds) of seeds 0..N-1 of ``family``, built once."""
+    """The objects of seeds 0..N-1 of ``family``, built once."""
     if (name, family) not in _CACHE:
-        objs, times = [], []
+        objs = []
         for seed in range(N):
             rng = np.random.default_rng(seed)
-            t0 = time.perf_counter()
             objs.append(MODULES[name].SPEC.build(rng, f"{name}/{family}/{seed}", family))
-            times.append(time.perf_counter() - t0)
-        _CACHE[name, family] = (objs, np.array(times))
+        _CACHE[name, family] = objs
     return _CACHE[name, family]
 
 
 def _all(name):
-    return [o for fam in MODULES[name].SPEC.family_names for o in _instances(name, fam)[0]]
+    return [o for fam in MODULES[name].SPEC.family_names for o in _instances(name, fam)]
 
 
 def test_every_family_has_documented_ranges():
@@ -75,7 +86,7 @@ def test_every_family_has_documented_ranges():
 
 @pytest.mark.parametrize("name,family", CASES)
 def test_instances_build_rigid_and_in_range(name, family):
-    objs, _ = _instances(name, family)
+    objs = _instances(name, family)
     for obj in objs:
         assert obj.category == name and obj.num_parts == 1 and obj.joints == () and obj.is_rigid
         assert obj.shape_family == family and obj.scale == 1.0
@@ -90,7 +101,7 @@ def test_instances_build_rigid_and_in_range(name, family):
         for axis, (lo, hi) in DIMS[name][family].items():
             x = size["xyz".index(axis)]
             assert lo * 0.99 - 5e-4 <= x <= hi * 1.01 + 5e-4, (obj.instance_id, axis, x, lo, hi)
-        assert all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj.params.values())
+        assert all(isinstance(x, int | float) and not isinstance(x, bool) for x in obj.params.values())
 
 
 @pytest.mark.parametrize("name", list(MODULES))
@@ -107,20 +118,13 @@ def test_spec(name):
 
 @pytest.mark.parametrize("name,family", CASES)
 def test_params_distinct_and_deterministic(name, family):
-    objs, _ = _instances(name, family)
+    objs = _instances(name, family)
     keys = {tuple(sorted(o.params.items())) for o in objs}
     assert len(keys) == N
     again = MODULES[name].SPEC.build(np.random.default_rng(7), "again", family)
     np.testing.assert_array_equal(again.parts[0].mesh.vertices, objs[7].parts[0].mesh.vertices)
     np.testing.assert_array_equal(again.parts[0].mesh.faces, objs[7].parts[0].mesh.faces)
     assert again.params == objs[7].params
-
-
-@pytest.mark.parametrize("name", list(MODULES))
-def test_build_time(name):
-    times = np.concatenate([_instances(name, fam)[1] for fam in MODULES[name].SPEC.family_names])
-    print(f"{name}: mean build {1e3 * times.mean():.2f} ms, max {1e3 * times.max():.2f} ms")
-    assert times.mean() < 0.1
 
 
 @pytest.mark.parametrize("name", SYMMETRIC)

@@ -31,10 +31,14 @@ PRIMITIVES = {
     "extrude_cw": lambda: shapes.extrude(shapes.rounded_rect(0.2, 0.1, 0.02)[::-1], 0.01, plane="yz"),
     "rounded_slab_y": lambda: shapes.rounded_slab((0.3, 0.02, 0.2), 0.01, axis="y"),
     "revolve_closed": lambda: shapes.revolve_profile(np.array([[0.05, 0.0], [0.06, 0.0], [0.06, 0.1], [0.05, 0.1]]), 32),
-    "revolve_open": lambda: shapes.revolve_profile(np.array([[0.0, 0.0], [0.05, 0.0], [0.05, 0.1], [0.0, 0.1]]), 32, closed=False),
+    "revolve_open": lambda: shapes.revolve_profile(
+        np.array([[0.0, 0.0], [0.05, 0.0], [0.05, 0.1], [0.0, 0.1]]), 32, closed=False
+    ),
     "rod": lambda: shapes.rod((0, 0, 0), (0.1, 0.2, 0.0), 0.01),
     "sweep_open": lambda: shapes.sweep_planar(np.c_[np.linspace(0, 0.1, 9), np.zeros(9), np.zeros(9)], (0, 1, 0), 0.004, 0.002),
-    "sweep_ring": lambda: shapes.sweep_planar(np.c_[shapes.superellipse(0.05, 0.03, 2.0, 40), np.zeros(40)], (0, 0, 1), 0.002, 0.003, closed=True),
+    "sweep_ring": lambda: shapes.sweep_planar(
+        np.c_[shapes.superellipse(0.05, 0.03, 2.0, 40), np.zeros(40)], (0, 0, 1), 0.002, 0.003, closed=True
+    ),
 }
 
 
@@ -63,7 +67,14 @@ def test_open_box_leaves_one_side_open():
 def test_revolve_profile_sections_keep_x_and_z_extents_equal():
     m = shapes.revolve_profile(np.array([[0.0, 0.0], [0.05, 0.0], [0.05, 0.1], [0.0, 0.1]]), 48, closed=False)
     np.testing.assert_allclose(m.extents, [0.1, 0.1, 0.1])
-    area2 = np.linalg.norm(np.cross(*(np.asarray(m.vertices)[np.asarray(m.faces)][:, 1:] - np.asarray(m.vertices)[np.asarray(m.faces)][:, :1]).transpose(1, 0, 2)), axis=1)
+    area2 = np.linalg.norm(
+        np.cross(
+            *(np.asarray(m.vertices)[np.asarray(m.faces)][:, 1:] - np.asarray(m.vertices)[np.asarray(m.faces)][:, :1]).transpose(
+                1, 0, 2
+            )
+        ),
+        axis=1,
+    )
     assert area2.min() > 1e-14  # the degenerate triangles at the axis are dropped
 
 

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from tests_support import make_toy_object
 
 from ucope.errors import InputError
 from ucope.geometry.transforms import apply_transform, invert_transform, look_at_rotation, make_transform
@@ -7,7 +8,6 @@ from ucope.render.camera import DEFAULT_CAMERA, PinholeCamera
 from ucope.render.noise import DepthNoise, apply_depth_noise, depth_to_mm
 from ucope.render.raycast import BACKGROUND_LABEL, raycast_depth
 from ucope.render.views import ViewConfig, render_view
-from tests_support import make_toy_object
 
 
 def _top_down_pose(height=1.0):

@@ -3,13 +3,12 @@ import math
 import numpy as np
 import pytest
 import torch
+from voting_support import angle_deg
 
 from ucope.errors import InputError
 from ucope.geometry.transforms import random_rotation
 from ucope.voting import choose_axis_sign, fibonacci_sphere, vote_axis
 from ucope.voting.axis import AxisOptions, coarse_axes, cube_cell, cube_cell_centre
-
-from voting_support import angle_deg
 
 
 def _cones(rng, u, M, outliers=0.0):

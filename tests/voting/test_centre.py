@@ -3,13 +3,12 @@ import math
 import numpy as np
 import pytest
 import torch
+from voting_support import random_part, synthetic_heads
 
 from ucope.errors import InputError
 from ucope.voting import CentreOptions, vote_centre
 from ucope.voting.bins import decode_bins
-from ucope.voting.centre import grid_peak, circle_candidates, pair_frames
-
-from voting_support import random_part, synthetic_heads
+from ucope.voting.centre import circle_candidates, grid_peak, pair_frames
 
 
 @pytest.mark.parametrize("outliers", [0.0, 0.2])
@@ -41,7 +40,7 @@ def _slow_grid_peak(cand, w, cell, max_cells):
     cell = max(cell, float((hi - lo).max()) / max_cells)
     dims = np.clip(np.ceil((hi - lo) / cell), 1, max_cells).astype(int)
     votes = {}
-    for p, wi in zip(pts, ws):
+    for p, wi in zip(pts, ws, strict=False):
         ijk = tuple(int(v) for v in np.floor((p - lo) / cell))
         if all(0 <= ijk[i] < dims[i] for i in range(3)):
             votes[ijk] = votes.get(ijk, 0.0) + wi

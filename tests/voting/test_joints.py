@@ -1,11 +1,10 @@
 import numpy as np
 import pytest
 import torch
+from voting_support import angle_deg
 
 from ucope.errors import InputError
 from ucope.voting import joint_from_points
-
-from voting_support import angle_deg
 
 
 def _heads(rng, N=2000, pivot=(0.1, -0.05, 0.8), axis=(0.3, 0.9, -0.2), outliers=0.3):

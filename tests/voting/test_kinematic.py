@@ -1,16 +1,15 @@
 import numpy as np
 import pytest
 import torch
+from tests_support import measured_priors
+from voting_support import angle_deg, peaked_logits
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.geometry.transforms import rotation_about_axis, rotation_angle_deg
 from ucope.model.config import ModelConfig
-from ucope.vocab import JointType
-from tests_support import measured_priors
 from ucope.model.targets import joint_point_targets, pair_vote_targets
+from ucope.vocab import JointType
 from ucope.voting import VotingOptions, kinematic_refine, vote_object
-
-from voting_support import angle_deg, peaked_logits
 
 
 def _samples(category, split, n):
@@ -29,9 +28,14 @@ def _exact_outputs(s, cfg, rng, M=1500):
     for k in range(K):
         V = cfg.priors.vote_range_m[k]
         a, b, na = pts[pair_idx[k, :, 0]], pts[pair_idx[k, :, 1]], nrm[pair_idx[k, :, 0]]
-        t = pair_vote_targets(a, b, na, torch.tensor(s["cam_from_part"][k], dtype=torch.float32),
-                              torch.tensor(s["size_m"][k], dtype=torch.float32),
-                              torch.tensor(cfg.priors.mean_size_m[k], dtype=torch.float32))
+        t = pair_vote_targets(
+            a,
+            b,
+            na,
+            torch.tensor(s["cam_from_part"][k], dtype=torch.float32),
+            torch.tensor(s["size_m"][k], dtype=torch.float32),
+            torch.tensor(cfg.priors.mean_size_m[k], dtype=torch.float32),
+        )
         out["mu_logits"].append(peaked_logits(t["mu"], -V, V, cfg.mu_bins))
         out["nu_logits"].append(peaked_logits(t["nu"], 0.0, V, cfg.nu_bins))
         out["alpha_logits"].append(peaked_logits(t["alpha"], 0.0, np.pi, cfg.angle_bins))
@@ -40,9 +44,16 @@ def _exact_outputs(s, cfg, rng, M=1500):
         out["gamma"].append(t["gamma"].expand(M, 3))
         out["part_score"].append(torch.full((M,), 4.0))
     outputs = {k: torch.stack(v)[None] for k, v in out.items()}
-    jt = joint_point_targets(pts[None], torch.tensor(labels)[None], torch.tensor(s["joint_pivot"], dtype=torch.float32)[None],
-                             torch.tensor(s["joint_axis"], dtype=torch.float32)[None], torch.tensor(s["joint_type"])[None],
-                             torch.tensor([j.parent for j in cfg.priors.joints]), torch.tensor([j.child for j in cfg.priors.joints]), 0.05)
+    jt = joint_point_targets(
+        pts[None],
+        torch.tensor(labels)[None],
+        torch.tensor(s["joint_pivot"], dtype=torch.float32)[None],
+        torch.tensor(s["joint_axis"], dtype=torch.float32)[None],
+        torch.tensor(s["joint_type"])[None],
+        torch.tensor([j.parent for j in cfg.priors.joints]),
+        torch.tensor([j.child for j in cfg.priors.joints]),
+        0.05,
+    )
     outputs["joint_heat"] = jt["heat"] * 8 - 4
     outputs["joint_score"] = jt["score"] * 8 - 4
     outputs["joint_offset"] = jt["offset"]
@@ -204,7 +215,9 @@ def test_states_outside_the_limits_are_clamped_and_the_child_moves_with_them():
     q = joint_state_from_poses(T[0], T[1], u[0], "prismatic", parts[0].mean_size_m, parts[1].mean_size_m)
     T2, q2, clamped = clamp_joint_states(T, u, np.full((1, 3), np.nan), np.array([q]), pri)
     assert clamped[0] and q2[0] == pytest.approx(0.2)
-    assert joint_state_from_poses(T2[0], T2[1], u[0], "prismatic", parts[0].mean_size_m, parts[1].mean_size_m) == pytest.approx(0.2)
+    assert joint_state_from_poses(T2[0], T2[1], u[0], "prismatic", parts[0].mean_size_m, parts[1].mean_size_m) == pytest.approx(
+        0.2
+    )
     # a revolute joint voted about the reversed axis: its state is clamped in the canonical sense, the child turned
     rev = CategoryPriors("toy", parts, (JointPrior("revolute", 0, 1, (1, 0, 0), limits=(0.0, 1.0)),), norm_scale_m=0.3)
     from ucope.geometry.transforms import rotation_about_axis

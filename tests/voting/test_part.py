@@ -3,13 +3,12 @@ import math
 import numpy as np
 import pytest
 import torch
+from voting_support import angle_deg, box_surface_points, random_part, synthetic_heads
 
 from ucope.errors import InputError
 from ucope.priors import CategoryPriors, JointPrior, PartPrior
 from ucope.voting import CentreOptions, VotingOptions, rotation_from_axes, vote_part, vote_parts
 from ucope.voting.rotation import refine_rotation
-
-from voting_support import angle_deg, box_surface_points, random_part, synthetic_heads
 
 HEADS = ("mu_logits", "nu_logits", "alpha_logits", "beta_logits", "sign_logits", "gamma", "part_score")
 
@@ -122,7 +121,9 @@ def test_bad_inputs_raise_input_errors(rng):
 
 
 def _priors(K, sizes, V, sym=False):
-    parts = tuple(PartPrior(name=f"p{k}", symmetry="y" if sym else "none", vote_range_m=V[k], mean_size_m=tuple(sizes[k])) for k in range(K))
+    parts = tuple(
+        PartPrior(name=f"p{k}", symmetry="y" if sym else "none", vote_range_m=V[k], mean_size_m=tuple(sizes[k])) for k in range(K)
+    )
     joints = tuple(JointPrior(type="revolute", parent=0, child=k, axis_in_parent=(1.0, 0.0, 0.0)) for k in range(1, K))
     return CategoryPriors(category="toy", parts=parts, joints=joints, norm_scale_m=0.3)
 
@@ -145,21 +146,34 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
     outs = {n: [] for n in HEADS}
     for k in range(K):
         pk = points[pair_idx[k].reshape(-1)].reshape(M, 2, 3)
-        a, b, n_, h, _ = synthetic_heads(rng, poses[k], sizes[k], sizes[k], M, V=V[k], points=np.concatenate([pk[:, 0], pk[:, 1]]))
+        a, b, n_, h, _ = synthetic_heads(
+            rng, poses[k], sizes[k], sizes[k], M, V=V[k], points=np.concatenate([pk[:, 0], pk[:, 1]])
+        )
         # The helper draws its own normals: recompute the sign bits for the cloud's normals.
         from ucope.model.targets import pair_vote_targets
 
-        t = pair_vote_targets(a, b, torch.tensor(normals[pair_idx[k, :, 0]], dtype=torch.float32),
-                              torch.tensor(poses[k], dtype=torch.float32), torch.tensor(sizes[k], dtype=torch.float32),
-                              torch.tensor(sizes[k], dtype=torch.float32))
+        t = pair_vote_targets(
+            a,
+            b,
+            torch.tensor(normals[pair_idx[k, :, 0]], dtype=torch.float32),
+            torch.tensor(poses[k], dtype=torch.float32),
+            torch.tensor(sizes[k], dtype=torch.float32),
+            torch.tensor(sizes[k], dtype=torch.float32),
+        )
         h["sign_logits"] = t["sign"] * 8 - 4
         for name in HEADS:
             outs[name].append(h[name])
     outputs = {name: torch.stack(v)[None] for name, v in outs.items()}
     cfg = _priors(K, sizes, V)
     full_surface = VotingOptions(thin_snap_ratio=0.0)  # points on every face: no visible side to snap to
-    res = vote_parts(torch.tensor(points, dtype=torch.float32)[None], torch.tensor(normals, dtype=torch.float32)[None],
-                     torch.tensor(pair_idx)[None], outputs, cfg, options=full_surface)
+    res = vote_parts(
+        torch.tensor(points, dtype=torch.float32)[None],
+        torch.tensor(normals, dtype=torch.float32)[None],
+        torch.tensor(pair_idx)[None],
+        outputs,
+        cfg,
+        options=full_surface,
+    )
     assert res["cam_from_part"].shape == (K, 4, 4) and res["size_m"].shape == (K, 3) and len(res["timings_ms"]) == K
     for k in range(K):
         assert np.linalg.norm(res["cam_from_part"][k, :3, 3] - poses[k][:3, 3]) < 0.25 * V[k] / 20
@@ -183,7 +197,14 @@ def test_vote_parts_from_network_shaped_outputs(rng, K):
     with pytest.raises(InputError, match="alpha_logits"):
         vote_parts(points, normals, pair_idx, lazy_outputs, cfg)
     with pytest.raises(InputError, match="beta_logits"):
-        vote_parts(points, normals, pair_idx, lazy_outputs, cfg, axis_heads=lambda k, rows: {"alpha_logits": outputs["alpha_logits"][0, k][rows]})
+        vote_parts(
+            points,
+            normals,
+            pair_idx,
+            lazy_outputs,
+            cfg,
+            axis_heads=lambda k, rows: {"alpha_logits": outputs["alpha_logits"][0, k][rows]},
+        )
     with pytest.raises(InputError, match="mu_logits"):
         vote_parts(points, normals, pair_idx, {**outputs, "mu_logits": outputs["mu_logits"][:, :, :10]}, cfg)
     for name in ("mu_logits", "nu_logits", "gamma", "part_score"):
@@ -232,8 +253,20 @@ def test_refine_rotation_is_the_joint_optimum(rng):
 def test_options_are_used(rng):
     T, size = random_part(rng)
     a, b, n, h, V = synthetic_heads(rng, T, size, size, 2000)
-    r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size,
-                  options=VotingOptions(refine_rotation=False, use_sign_bits=False, max_axis_pairs=500, centre=CentreOptions(num_angles=24, max_refine_pairs=1024)))
+    r = vote_part(
+        a,
+        b,
+        n,
+        *(h[k] for k in HEADS),
+        vote_range_m=V,
+        mean_size_m=size,
+        options=VotingOptions(
+            refine_rotation=False,
+            use_sign_bits=False,
+            max_axis_pairs=500,
+            centre=CentreOptions(num_angles=24, max_refine_pairs=1024),
+        ),
+    )
     _check_pose(r, T, size, V, False)
     assert math.isfinite(r.score)
 

@@ -48,8 +48,14 @@ def synthetic_heads(rng, T, size, mean_size, M, outlier_frac=0.0, bins=(32, 32, 
     a = torch.tensor(pts[:M], dtype=torch.float32)
     b = torch.tensor(pts[M : 2 * M], dtype=torch.float32)
     n = torch.nn.functional.normalize(torch.tensor(rng.normal(size=(M, 3)), dtype=torch.float32), dim=-1)
-    t = pair_vote_targets(a, b, n, torch.tensor(T, dtype=torch.float32), torch.tensor(size, dtype=torch.float32),
-                          torch.tensor(mean_size, dtype=torch.float32))
+    t = pair_vote_targets(
+        a,
+        b,
+        n,
+        torch.tensor(T, dtype=torch.float32),
+        torch.tensor(size, dtype=torch.float32),
+        torch.tensor(mean_size, dtype=torch.float32),
+    )
     out = torch.from_numpy(rng.random(M) < outlier_frac)
     if noise[0] > 0 or noise[1] > 0:
         for k, sd in (("mu", noise[0]), ("nu", noise[0]), ("alpha", noise[1]), ("beta", noise[1])):

@@ -9,8 +9,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..versions import __version__
 from ..errors import UcopeError
+from ..versions import __version__
 
 __all__ = ["main", "build_parser"]
 
@@ -30,11 +30,12 @@ def cmd_categories(args: argparse.Namespace) -> int:
 
     rows = [("name", "family", "K", "joints", "symmetry", "parts")]
     for s in list_categories():
-        rows.append((s.name, s.family, str(s.num_parts), ",".join(s.joint_types) or "-",
-                     ",".join(s.symmetry), ",".join(s.part_names)))
+        rows.append(
+            (s.name, s.family, str(s.num_parts), ",".join(s.joint_types) or "-", ",".join(s.symmetry), ",".join(s.part_names))
+        )
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     for r in rows:
-        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=False)).rstrip())
     return 0
 
 
@@ -44,9 +45,19 @@ def _generate_config(args: argparse.Namespace, **overrides):
     from ..render.views import ViewConfig
 
     view = ViewConfig(noise=DepthNoise(enabled=not args.no_noise), floor=not args.no_floor, num_distractors=args.distractors)
-    kw = dict(category=args.category, split=args.split, num=args.num, seed=args.seed, shard_size=args.shard_size,
-              views_per_instance=args.views_per_instance, max_points=args.max_points, images=args.images, view=view,
-              scale=args.scale, adjacent_distractor=args.adjacent_distractor)
+    kw = dict(
+        category=args.category,
+        split=args.split,
+        num=args.num,
+        seed=args.seed,
+        shard_size=args.shard_size,
+        views_per_instance=args.views_per_instance,
+        max_points=args.max_points,
+        images=args.images,
+        view=view,
+        scale=args.scale,
+        adjacent_distractor=args.adjacent_distractor,
+    )
     kw.update(overrides)
     return GenerateConfig(**kw)
 
@@ -84,10 +95,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     from ..data.generate import GenerateConfig, make_sample
-    from ..fileio import atomic_write_json
-    from ..eval.evaluate import sample_errors
-    from ..estimation.estimator import Estimator
     from ..estimation.draw import plot_results
+    from ..estimation.estimator import Estimator
+    from ..eval.evaluate import sample_errors
+    from ..fileio import atomic_write_json
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -133,12 +144,18 @@ def cmd_models(args: argparse.Namespace) -> int:
             stage = stage.get("initialised_from")
         tuned = f" ({len(steps) - 1} fine-tuning stage{'s' if len(steps) > 2 else ''})" if len(steps) > 1 else ""
         refine = " kinematic refinement on by default;" if (info.get("defaults") or {}).get("refine") else ""
-        print(f"{name}: {len(part_names)} part(s) ({', '.join(part_names)}); {joints}; "
-              f"{cfg['head']} head;{refine} {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
-              f"trained {' + '.join(str(x) for x in steps)} steps{tuned}")
+        print(
+            f"{name}: {len(part_names)} part(s) ({', '.join(part_names)}); {joints}; "
+            f"{cfg['head']} head;{refine} {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
+            f"trained {' + '.join(str(x) for x in steps)} steps{tuned}"
+        )
         if test:
-            line = (f"  test split ({test.get('num_samples')} unseen views): rotation {_fmt_list(test.get('rotation_deg_mean'), '{:.1f}')} deg, "
-                    f"translation {_fmt_list(test.get('translation_m_mean'), '{:.3f}')} m, IoU {_fmt_list(test.get('iou_mean'), '{:.2f}')}")
+            line = (
+                f"  test split ({test.get('num_samples')} unseen views): rotation "
+                f"{_fmt_list(test.get('rotation_deg_mean'), '{:.1f}')} deg, "
+                f"translation {_fmt_list(test.get('translation_m_mean'), '{:.3f}')} m, IoU "
+                f"{_fmt_list(test.get('iou_mean'), '{:.2f}')}"
+            )
             if test.get("joint_axis_deg_mean"):
                 line += f"; joint axis {_fmt_list(test['joint_axis_deg_mean'], '{:.1f}')} deg"
             if test.get("map"):
@@ -163,13 +180,36 @@ def cmd_train(args: argparse.Namespace) -> int:
         if getattr(args, name) is not None:
             overrides[name] = getattr(args, name)
     tc = TrainConfig(
-        category=args.category, out=args.out, data=args.data, val_data=args.val_data, on_the_fly=args.on_the_fly,
-        steps=args.steps, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, lr_step_epochs=args.lr_step_epochs,
-        lr_gamma=args.lr_gamma, model_size=args.size, model_overrides=overrides, seed=args.seed, data_seed=args.data_seed,
-        epoch_size=args.epoch_size, val_samples=args.val_samples, workers=args.workers, log_every=args.log_every,
-        val_every=args.val_every, checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
-        threads=args.threads, device=args.device, resume=args.resume, init_from=args.init, progress=not args.quiet,
-        allow_changed_settings=args.allow_changed_settings, augment=args.augment, new_priors=args.new_priors,
+        category=args.category,
+        out=args.out,
+        data=args.data,
+        val_data=args.val_data,
+        on_the_fly=args.on_the_fly,
+        steps=args.steps,
+        epochs=args.epochs,
+        batch_size=args.batch_size,
+        lr=args.lr,
+        lr_step_epochs=args.lr_step_epochs,
+        lr_gamma=args.lr_gamma,
+        model_size=args.size,
+        model_overrides=overrides,
+        seed=args.seed,
+        data_seed=args.data_seed,
+        epoch_size=args.epoch_size,
+        val_samples=args.val_samples,
+        workers=args.workers,
+        log_every=args.log_every,
+        val_every=args.val_every,
+        checkpoint_every=args.checkpoint_every,
+        max_minutes=args.max_minutes,
+        threads=args.threads,
+        device=args.device,
+        resume=args.resume,
+        init_from=args.init,
+        progress=not args.quiet,
+        allow_changed_settings=args.allow_changed_settings,
+        augment=args.augment,
+        new_priors=args.new_priors,
     )
     card = train(tc)
     if card:
@@ -182,9 +222,17 @@ def cmd_train(args: argparse.Namespace) -> int:
 def _estimator(args: argparse.Namespace):
     from ..estimation.estimator import Estimator
 
-    return Estimator.load(args.model, num_pairs=args.pairs, awareness=not args.no_awareness, refine=args.refine, seed=args.seed,
-                          resolve_flips=not args.keep_flips, device=args.device,
-                          score_filter=False if args.no_score_filter else None, segment_pairs=False if args.pairs_from_cloud else None)
+    return Estimator.load(
+        args.model,
+        num_pairs=args.pairs,
+        awareness=not args.no_awareness,
+        refine=args.refine,
+        seed=args.seed,
+        resolve_flips=not args.keep_flips,
+        device=args.device,
+        score_filter=False if args.no_score_filter else None,
+        segment_pairs=False if args.pairs_from_cloud else None,
+    )
 
 
 def _expand_inputs(spec: str) -> list[Path]:
@@ -206,9 +254,12 @@ def _expand_inputs(spec: str) -> list[Path]:
 
 def format_errors(result, errors: dict) -> str:
     lines = []
-    for p, e in zip(result.parts, errors["parts"]):
-        lines.append(f"  {p.label:14s} rotation {e['rotation_deg']:6.2f} deg  translation {100 * e['translation_m']:6.2f} cm  3D IoU {e['iou']:.3f}")
-    for j, e in zip(result.joints, errors["joints"]):
+    for p, e in zip(result.parts, errors["parts"], strict=False):
+        lines.append(
+            f"  {p.label:14s} rotation {e['rotation_deg']:6.2f} deg  translation {100 * e['translation_m']:6.2f} cm  3D IoU "
+            f"{e['iou']:.3f}"
+        )
+    for j, e in zip(result.joints, errors["joints"], strict=False):
         if e is None:  # no ground truth for this joint (BOP)
             continue
         piv = f"  pivot {100 * e['pivot_m']:5.2f} cm" if e["pivot_m"] is not None else ""
@@ -232,8 +283,12 @@ def _predict_jobs(args: argparse.Namespace) -> tuple[list, dict | None]:
         mask = read_depth_png(args.mask) if args.mask is not None else None
         depth, K = read_depth_png(args.depth), read_intrinsics(args.intrinsics)
         pts = rgbd_points(depth, K, mask=mask, box=args.box, depth_scale=args.depth_scale, mask_label=args.mask_label)
-        frame = {"depth_m": depth.astype(float) / args.depth_scale, "intrinsics": K, "title": Path(args.depth).stem,
-                 "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None}
+        frame = {
+            "depth_m": depth.astype(float) / args.depth_scale,
+            "intrinsics": K,
+            "title": Path(args.depth).stem,
+            "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None,
+        }
         return [(Path(args.depth).stem, lambda: (pts, None, None, "m"))], frame
     if args.data is not None:
         from ..data.dataset import load_dataset
@@ -242,7 +297,10 @@ def _predict_jobs(args: argparse.Namespace) -> tuple[list, dict | None]:
         for i in args.index or [0]:
             if not -len(ds) <= i < len(ds):
                 raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
-        jobs = [(f"{ds.category}_{i % len(ds):06d}", lambda i=i: (ds[i]["points"], ds[i]["normals"], ds[i], "m")) for i in args.index or [0]]
+        jobs = [
+            (f"{ds.category}_{i % len(ds):06d}", lambda i=i: (ds[i]["points"], ds[i]["normals"], ds[i], "m"))
+            for i in args.index or [0]
+        ]
         return jobs, None
     if args.input is not None:
         return [(f.stem, lambda f=f: (*read_point_cloud(f), None, args.units)) for f in _expand_inputs(args.input)], None
@@ -315,7 +373,9 @@ def cmd_predict(args: argparse.Namespace) -> int:
     if bar is not None:
         bar.close()
     im_ids = job_im_ids([name for name, *_ in done], args, [s for *_, s, _ in done])
-    write_outputs(args, [Job(name, res, pts, s, err, im_id=i) for (name, res, pts, s, err), i in zip(done, im_ids)], frame)
+    write_outputs(
+        args, [Job(name, res, pts, s, err, im_id=i) for (name, res, pts, s, err), i in zip(done, im_ids, strict=False)], frame
+    )
     if failed:
         print(f"ucope predict: {len(failed)} of {len(jobs)} input(s) failed: {', '.join(failed)}", file=sys.stderr)
         return 2
@@ -324,8 +384,8 @@ def cmd_predict(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from ..data.dataset import load_dataset
-    from ..fileio import atomic_write_json
     from ..eval.evaluate import evaluate, format_report
+    from ..fileio import atomic_write_json
 
     est = _estimator(args)
     args.data = args.data or args.data_dir
@@ -337,8 +397,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
         ds, info = eval_samples(args, est.category)
     else:
         ds = load_dataset(args.data)
-        info = {"path": str(Path(args.data).resolve()), "split": ds.meta.get("split"), "seed": ds.meta.get("seed"),
-                "generator_version": ds.meta.get("generator_version")}
+        info = {
+            "path": str(Path(args.data).resolve()),
+            "split": ds.meta.get("split"),
+            "seed": ds.meta.get("seed"),
+            "generator_version": ds.meta.get("generator_version"),
+        }
     n = len(ds) if args.num is None else min(len(ds), args.num)
     if n <= 0:
         raise UcopeError(f"--num must be positive, got {args.num}")
@@ -356,14 +420,28 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
     """The options of :func:`_estimator` (shared by predict and eval)."""
     p.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
     p.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
-    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=None,
-                   help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
-                        "eyeglasses, drawer, dishwasher and scissors models have it on)")
-    p.add_argument("--no-score-filter", action="store_true",
-                   help="every pair votes for its part, whatever its part score (ablation of the paper's eq. (10) alone)")
-    p.add_argument("--pairs-from-cloud", action="store_true",
-                   help="draw each part's pairs from the whole cloud, not from the points segmented as that part (ablation)")
-    p.add_argument("--keep-flips", action="store_true", help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)")
+    p.add_argument(
+        "--refine",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
+        "eyeglasses, drawer, dishwasher and scissors models have it on)",
+    )
+    p.add_argument(
+        "--no-score-filter",
+        action="store_true",
+        help="every pair votes for its part, whatever its part score (ablation of the paper's eq. (10) alone)",
+    )
+    p.add_argument(
+        "--pairs-from-cloud",
+        action="store_true",
+        help="draw each part's pairs from the whole cloud, not from the points segmented as that part (ablation)",
+    )
+    p.add_argument(
+        "--keep-flips",
+        action="store_true",
+        help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the subsampling and pair draws (>= 0)")
     p.add_argument("--device", default="cpu", help="torch device of the network: cpu (default), cuda, cuda:1, mps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -373,7 +451,9 @@ def build_parser() -> argparse.ArgumentParser:
     from ..objects.categories import CATEGORY_NAMES, SPLITS
     from .outputs import add_eval_format_options, add_output_options, add_view_options
 
-    p = argparse.ArgumentParser(prog="ucope", description="Universal 9D category-level pose estimation of rigid and articulated objects.")
+    p = argparse.ArgumentParser(
+        prog="ucope", description="Universal 9D category-level pose estimation of rigid and articulated objects."
+    )
     p.add_argument("--version", action="version", version=f"ucope {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
@@ -395,10 +475,19 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--no-noise", action="store_true", help="clean depth (no sensor noise model)")
     g.add_argument("--no-floor", action="store_true", help="no floor plane")
     g.add_argument("--distractors", type=int, default=2, help="maximum number of distractor objects per view")
-    g.add_argument("--adjacent-distractor", type=float, default=0.5, metavar="P",
-                   help="chance that a view gets a distractor right next to the object in the image (default 0.5)")
-    g.add_argument("--scale", type=float, default=None, help="build every instance at this uniform scale (the camera distance "
-                                                              "scales too): the same shapes at another size")
+    g.add_argument(
+        "--adjacent-distractor",
+        type=float,
+        default=0.5,
+        metavar="P",
+        help="chance that a view gets a distractor right next to the object in the image (default 0.5)",
+    )
+    g.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="build every instance at this uniform scale (the camera distance " "scales too): the same shapes at another size",
+    )
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(func=cmd_generate)
 
@@ -409,33 +498,55 @@ def build_parser() -> argparse.ArgumentParser:
     add_view_options(s)
     s.set_defaults(func=cmd_show)
 
-    t = sub.add_parser("train", help="train a model (single process, or DDP under torchrun)",
-                       description="Train a U-COPE model. Multi-GPU / multi-machine: torchrun --nproc_per_node=N -m ucope train ...")
+    t = sub.add_parser(
+        "train",
+        help="train a model (single process, or DDP under torchrun)",
+        description="Train a U-COPE model. Multi-GPU / multi-machine: torchrun --nproc_per_node=N -m ucope train ...",
+    )
     t.add_argument("--category", required=True, help=f"one of: {', '.join(CATEGORY_NAMES)}")
     src = t.add_mutually_exclusive_group(required=True)
     src.add_argument("--data", help="training data set folder (from `ucope generate --split train`)")
     src.add_argument("--on-the-fly", action="store_true", help="generate training samples in the data-loader workers instead")
-    t.add_argument("--val-data", default=None, help="held-out data set folder (default: --val-samples views generated from the val split)")
+    t.add_argument(
+        "--val-data", default=None, help="held-out data set folder (default: --val-samples views generated from the val split)"
+    )
     t.add_argument("--out", required=True, help="run folder (metrics, checkpoints, model)")
     n = t.add_mutually_exclusive_group(required=True)
     n.add_argument("--steps", type=int, help="optimiser steps")
     n.add_argument("--epochs", type=float, help="passes over the data (on the fly: of --epoch-size samples)")
     t.add_argument("--batch-size", type=int, default=8, help="items per step and per process (default 8)")
-    t.add_argument("--size", choices=["slim", "full"], default="slim", help="slim: 1024 points, half widths (default); full: 2048 points")
+    t.add_argument(
+        "--size", choices=["slim", "full"], default="slim", help="slim: 1024 points, half widths (default); full: 2048 points"
+    )
     t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (default 1e-3)")
-    t.add_argument("--lr-step-epochs", type=float, default=10.0, help="multiply the lr by --lr-gamma every this many epochs (default 10)")
+    t.add_argument(
+        "--lr-step-epochs", type=float, default=10.0, help="multiply the lr by --lr-gamma every this many epochs (default 10)"
+    )
     t.add_argument("--lr-gamma", type=float, default=0.1)
     t.add_argument("--pairs-per-part", type=int, default=None, help="point pairs per part per item (default 512)")
-    t.add_argument("--seg-weighting", choices=["balanced", "points"], default=None,
-                   help="segmentation cross-entropy: balanced over parts (default) or over points (better for look-alike parts)")
+    t.add_argument(
+        "--seg-weighting",
+        choices=["balanced", "points"],
+        default=None,
+        help="segmentation cross-entropy: balanced over parts (default) or over points (better for look-alike parts)",
+    )
     t.add_argument("--lambda-seg", type=float, default=None, help="weight of the segmentation loss in eq. (7) (default 0.2)")
     t.add_argument("--lambda-joint", type=float, default=None, help="weight of the joint loss (default 0.2)")
     t.add_argument("--lambda-pose", type=float, default=None, help="weight of the pose loss (default 0.6)")
-    t.add_argument("--augment", type=float, default=0.0, metavar="P",
-                   help="corrupt each training item with chance P (occlusion, floor and neighbour points, outliers, noise, "
-                        "fewer points; the model gets a background class); default 0: off")
-    t.add_argument("--head", choices=["voting", "regression"], default="voting",
-                   help="voting: U-COPE (default); regression: the direct-regression baseline (same encoder, masks and joint heads)")
+    t.add_argument(
+        "--augment",
+        type=float,
+        default=0.0,
+        metavar="P",
+        help="corrupt each training item with chance P (occlusion, floor and neighbour points, outliers, noise, "
+        "fewer points; the model gets a background class); default 0: off",
+    )
+    t.add_argument(
+        "--head",
+        choices=["voting", "regression"],
+        default="voting",
+        help="voting: U-COPE (default); regression: the direct-regression baseline (same encoder, masks and joint heads)",
+    )
     t.add_argument("--seed", type=int, default=0, help="seed of the weights, sample order and draws")
     t.add_argument("--data-seed", type=int, default=0, help="seed of generated samples (--on-the-fly, default validation set)")
     t.add_argument("--epoch-size", type=int, default=4000, help="samples per epoch with --on-the-fly")
@@ -448,37 +559,65 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     t.add_argument("--device", choices=["auto", "cpu", "cuda"], default="auto")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint (with the same settings)")
-    t.add_argument("--allow-changed-settings", action="store_true",
-                   help="with --resume: go on even though settings that change the model differ from the checkpoint's")
-    t.add_argument("--init", default=None, metavar="MODEL",
-                   help="fine-tune: start from this model's weights (a shipped model name such as laptop, a run folder "
-                        "or a model .json) with a fresh optimiser; its network and category statistics are kept")
-    t.add_argument("--new-priors", action="store_true",
-                   help="with --init: measure the category priors on this training data instead of keeping the initial model's")
+    t.add_argument(
+        "--allow-changed-settings",
+        action="store_true",
+        help="with --resume: go on even though settings that change the model differ from the checkpoint's",
+    )
+    t.add_argument(
+        "--init",
+        default=None,
+        metavar="MODEL",
+        help="fine-tune: start from this model's weights (a shipped model name such as laptop, a run folder "
+        "or a model .json) with a fresh optimiser; its network and category statistics are kept",
+    )
+    t.add_argument(
+        "--new-priors",
+        action="store_true",
+        help="with --init: measure the category priors on this training data instead of keeping the initial model's",
+    )
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train)
 
-    pr = sub.add_parser("predict", help="estimate part poses, joints and segmentation of objects",
-                        description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples. "
-                                    "A cloud is ONE segmented object (not a whole scene) in the CAMERA frame (OpenCV axes: x right, "
-                                    "y down, z forward from the camera), in metres unless --units says otherwise. Results are in metres.")
-    pr.add_argument("--model", default=None,
-                    help="a shipped model name (e.g. laptop), a run folder or a model .json (required unless --instances)")
-    pr.add_argument("--input", help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts; organised clouds too), a folder or a "
-                                    "glob (quote it): one segmented object in the camera frame")
+    pr = sub.add_parser(
+        "predict",
+        help="estimate part poses, joints and segmentation of objects",
+        description="Estimate 9D part poses from a point cloud, a folder / glob of clouds, an RGB-D frame, or data-set samples. "
+        "A cloud is ONE segmented object (not a whole scene) in the CAMERA frame (OpenCV axes: x right, "
+        "y down, z forward from the camera), in metres unless --units says otherwise. Results are in metres.",
+    )
+    pr.add_argument(
+        "--model",
+        default=None,
+        help="a shipped model name (e.g. laptop), a run folder or a model .json (required unless --instances)",
+    )
+    pr.add_argument(
+        "--input",
+        help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts; organised clouds too), a folder or a "
+        "glob (quote it): one segmented object in the camera frame",
+    )
     pr.add_argument("--units", choices=["m", "cm", "mm"], default="m", help="length unit of the --input clouds (default m)")
     pr.add_argument("--ignore-normals", action="store_true", help="estimate normals even when the file holds some")
     pr.add_argument("--depth", help="depth PNG (16-bit; see --depth-scale)")
     pr.add_argument("--intrinsics", help="camera intrinsics JSON (fx, fy, cx, cy or K / cam_K)")
     pr.add_argument("--mask", help="object mask PNG (non-zero = object, or see --mask-label)")
     pr.add_argument("--mask-label", type=int, nargs="+", default=None, help="mask values that belong to the object")
-    pr.add_argument("--box", type=float, nargs=4, default=None, metavar=("X0", "Y0", "X1", "Y1"), help="pixel box to crop the depth to")
+    pr.add_argument(
+        "--box", type=float, nargs=4, default=None, metavar=("X0", "Y0", "X1", "Y1"), help="pixel box to crop the depth to"
+    )
     pr.add_argument("--depth-scale", type=float, default=1000.0, help="depth units per metre (default 1000: millimetres)")
-    pr.add_argument("--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth")
+    pr.add_argument(
+        "--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth"
+    )
     pr.add_argument("--index", type=int, nargs="+", default=None, help="sample index(es) with --data (default 0)")
-    pr.add_argument("--out", required=True, help="result JSON, or a folder (an existing one, or a path ending with /; always with several inputs)")
-    pr.add_argument("--vis", default=None,
-                    help="also draw the estimates into this PNG (over the depth image, and the --rgb image)")
+    pr.add_argument(
+        "--out",
+        required=True,
+        help="result JSON, or a folder (an existing one, or a path ending with /; always with several inputs)",
+    )
+    pr.add_argument(
+        "--vis", default=None, help="also draw the estimates into this PNG (over the depth image, and the --rgb image)"
+    )
     add_output_options(pr)
     _estimator_options(pr)
     pr.set_defaults(func=cmd_predict)
@@ -486,8 +625,11 @@ def build_parser() -> argparse.ArgumentParser:
     mo = sub.add_parser("models", help="list the models shipped inside the package, with their test-split figures")
     mo.set_defaults(func=cmd_models)
 
-    ev = sub.add_parser("eval", help="evaluate a model on a (test) data set: Table-2 / Table-1 shaped figures and a JSON report",
-                        description="Predict on every sample of --data and measure per-part, joint, segmentation and (rigid) mAP metrics.")
+    ev = sub.add_parser(
+        "eval",
+        help="evaluate a model on a (test) data set: Table-2 / Table-1 shaped figures and a JSON report",
+        description="Predict on every sample of --data and measure per-part, joint, segmentation and (rigid) mAP metrics.",
+    )
     ev.add_argument("--model", required=True, help="a shipped model name (e.g. laptop), a run folder or a model .json")
     ev.add_argument("data_dir", nargs="?", default=None, metavar="DIR", help="the data set folder (or --data DIR)")
     ev.add_argument("--data", default=None, help="data set folder (e.g. from `ucope generate --split test`; see --format)")
@@ -497,7 +639,9 @@ def build_parser() -> argparse.ArgumentParser:
     _estimator_options(ev)
     ev.set_defaults(func=cmd_eval)
 
-    d = sub.add_parser("demo", help="run the shipped models on unseen test views, print errors against the ground truth, draw them")
+    d = sub.add_parser(
+        "demo", help="run the shipped models on unseen test views, print errors against the ground truth, draw them"
+    )
     d.add_argument("--out", default="demo_out", help="folder for the pictures and result JSONs (default demo_out)")
     d.add_argument("--categories", nargs="+", default=["laptop", "mug"], help="shipped models to run (default laptop mug)")
     d.add_argument("--num", type=int, default=2, help="views per category (default 2)")
@@ -529,8 +673,11 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # a bug of ours: one line, the traceback on request
         if os.environ.get("UCOPE_DEBUG"):
             raise
-        print(f"ucope {args.command}: internal error: {type(e).__name__}: {e} (please report it; UCOPE_DEBUG=1 shows the traceback)",
-              file=sys.stderr)
+        print(
+            f"ucope {args.command}: internal error: {type(e).__name__}: {e} (please report it; UCOPE_DEBUG=1 shows the "
+            "traceback)",
+            file=sys.stderr,
+        )
         return 1
 
 

@@ -1,7 +1,8 @@
 """Synthetic data sets: generation (sharded, resumable, deterministic) and loading.
 
 ``load_dataset(DIR)`` gives an indexable sequence of sample dicts (fields in :mod:`ucope.data.sample`);
-``GeneratedSamples`` streams new samples on the fly; ``PointCloudDataset`` (a torch ``Dataset``, imported lazily) gives fixed-size point sets.
+``GeneratedSamples`` streams new samples on the fly; ``PointCloudDataset`` (a torch ``Dataset``, imported
+lazily) gives fixed-size point sets.
 """
 
 from __future__ import annotations
@@ -10,7 +11,15 @@ from .dataset import SyntheticDataset, load_dataset
 from .generate import GenerateConfig, generate_dataset, make_sample
 from .stream import GeneratedSamples
 
-__all__ = ["SyntheticDataset", "load_dataset", "GenerateConfig", "generate_dataset", "make_sample", "GeneratedSamples", "PointCloudDataset"]
+__all__ = [
+    "SyntheticDataset",
+    "load_dataset",
+    "GenerateConfig",
+    "generate_dataset",
+    "make_sample",
+    "GeneratedSamples",
+    "PointCloudDataset",
+]
 
 
 def __getattr__(name: str):

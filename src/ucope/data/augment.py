@@ -88,13 +88,22 @@ def sample_context(sample: dict) -> CorruptionContext:
     one, its background pool (stored thinned to the cloud's density: ``pixels_per_point = 1``)."""
     pool = None
     if "bg_points" in sample and len(sample["bg_points"]):
-        pool = BackgroundPool(np.asarray(sample["bg_points"], np.float64), np.asarray(sample["bg_rank"], np.float64),
-                              np.asarray(sample["bg_clutter"], bool), 1.0)
-    return CorruptionContext(cam_from_part=np.asarray(sample["cam_from_part"], np.float64),
-                             size_m=np.asarray(sample["size_m"], np.float64), background=pool)
+        pool = BackgroundPool(
+            np.asarray(sample["bg_points"], np.float64),
+            np.asarray(sample["bg_rank"], np.float64),
+            np.asarray(sample["bg_clutter"], bool),
+            1.0,
+        )
+    return CorruptionContext(
+        cam_from_part=np.asarray(sample["cam_from_part"], np.float64),
+        size_m=np.asarray(sample["size_m"], np.float64),
+        background=pool,
+    )
 
 
-def augment_sample(sample: dict, rng: np.random.Generator, config: AugmentConfig | None = None) -> tuple[np.ndarray, np.ndarray, bool]:
+def augment_sample(
+    sample: dict, rng: np.random.Generator, config: AugmentConfig | None = None
+) -> tuple[np.ndarray, np.ndarray, bool]:
     """A corrupted copy of a training sample's cloud (see the module docstring).
 
     Args:

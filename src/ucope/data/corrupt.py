@@ -38,9 +38,23 @@ from ..render.noise import DepthNoise
 from ..render.raycast import BACKGROUND_LABEL, CLUTTER_LABEL
 
 __all__ = [  # noqa: RUF022 - grouped: the types, the corruptions, the helpers
-    "BackgroundPool", "CorruptionContext", "CorruptionKind", "KINDS",
-    "isotropic_noise", "axial_noise", "add_outliers", "add_floor", "mask_bleed", "occlude", "resample", "shuffle",
-    "corrupt", "parse_spec", "object_box", "occluder_normal", "background_pool",
+    "BackgroundPool",
+    "CorruptionContext",
+    "CorruptionKind",
+    "KINDS",
+    "isotropic_noise",
+    "axial_noise",
+    "add_outliers",
+    "add_floor",
+    "mask_bleed",
+    "occlude",
+    "resample",
+    "shuffle",
+    "corrupt",
+    "parse_spec",
+    "object_box",
+    "occluder_normal",
+    "background_pool",
 ]
 
 OCCLUDER_MAX_TILT_DEG = 20.0
@@ -84,7 +98,9 @@ class BackgroundPool:
         rank = np.asarray(self.rank, np.float64)
         clutter = np.asarray(self.clutter)
         if rank.shape != (len(pts),) or clutter.shape != (len(pts),):
-            raise InputError(f"BackgroundPool.rank and .clutter must have shape ({len(pts)},), got {rank.shape} and {clutter.shape}")
+            raise InputError(
+                f"BackgroundPool.rank and .clutter must have shape ({len(pts)},), got {rank.shape} and {clutter.shape}"
+            )
         if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(rank))):
             raise InputError("BackgroundPool.points and .rank must be finite")
         ppp = float(self.pixels_per_point)
@@ -172,7 +188,7 @@ def _check(points, labels, rng) -> tuple[np.ndarray, np.ndarray, np.dtype]:
 
 
 def _level(x, name: str, lo: float = 0.0, hi: float = math.inf, lo_open: bool = False) -> float:
-    if isinstance(x, (bool, np.bool_)):
+    if isinstance(x, bool | np.bool_):
         raise InputError(f"{name} must be a number, got {x!r}")
     try:
         v = float(x)
@@ -349,8 +365,10 @@ def _from_pool(p, lab, dtype, fraction, rng, context, clutter, what: str):
     f = _level(fraction, "fraction")
     ctx = _context(context)
     if ctx.background is None:
-        raise InputError(f"{what} needs context.background, the background pixels around the object "
-                         "(ucope.data.corrupt.background_pool(view, camera))")
+        raise InputError(
+            f"{what} needs context.background, the background pixels around the object "
+            "(ucope.data.corrupt.background_pool(view, camera))"
+        )
     pool = ctx.background.select(clutter)
     return _append(p, lab, pool.points[_nearest(pool, _count(f, lab), rng)], dtype)
 
@@ -482,24 +500,48 @@ class CorruptionKind:
     integer: bool = False
 
 
-KINDS: dict[str, CorruptionKind] = {k.name: k for k in (
-    CorruptionKind("noise", isotropic_noise, (0.0, 0.002, 0.005, 0.01), 0.0, "m",
-                   "isotropic Gaussian noise, sigma per axis in metres"),
-    CorruptionKind("axial", axial_noise, (0.0, 1.0, 3.0, 5.0), 0.0, "x sigma(z)",
-                   "depth noise along the viewing rays, a multiple of the sensor model's sigma(z)"),
-    CorruptionKind("outliers", add_outliers, (0.0, 0.05, 0.10, 0.20), 0.0, "x object points",
-                   "points added uniformly in the object's box scaled 1.5x"),
-    CorruptionKind("floor", add_floor, (0.0, 0.25, 0.50, 1.00), 0.0, "x object points",
-                   "floor points nearest the silhouette added"),
-    CorruptionKind("bleed", mask_bleed, (0.0, 0.10, 0.25), 0.0, "x object points",
-                   "floor and distractor points just outside the silhouette added"),
-    CorruptionKind("occlude", occlude, (1.0, 0.8, 0.6, 0.4), 1.0, "fraction kept",
-                   "a random plane cuts away one side of the cloud"),
-    CorruptionKind("points", resample, (4096, 1000, 500, 200, 100), None, "points",
-                   "resampled to this many points", integer=True),
-    CorruptionKind("shuffle", shuffle, (0, 1), 0.0, "on/off",
-                   "the points in a random order", integer=True),
-)}
+KINDS: dict[str, CorruptionKind] = {
+    k.name: k
+    for k in (
+        CorruptionKind(
+            "noise", isotropic_noise, (0.0, 0.002, 0.005, 0.01), 0.0, "m", "isotropic Gaussian noise, sigma per axis in metres"
+        ),
+        CorruptionKind(
+            "axial",
+            axial_noise,
+            (0.0, 1.0, 3.0, 5.0),
+            0.0,
+            "x sigma(z)",
+            "depth noise along the viewing rays, a multiple of the sensor model's sigma(z)",
+        ),
+        CorruptionKind(
+            "outliers",
+            add_outliers,
+            (0.0, 0.05, 0.10, 0.20),
+            0.0,
+            "x object points",
+            "points added uniformly in the object's box scaled 1.5x",
+        ),
+        CorruptionKind(
+            "floor", add_floor, (0.0, 0.25, 0.50, 1.00), 0.0, "x object points", "floor points nearest the silhouette added"
+        ),
+        CorruptionKind(
+            "bleed",
+            mask_bleed,
+            (0.0, 0.10, 0.25),
+            0.0,
+            "x object points",
+            "floor and distractor points just outside the silhouette added",
+        ),
+        CorruptionKind(
+            "occlude", occlude, (1.0, 0.8, 0.6, 0.4), 1.0, "fraction kept", "a random plane cuts away one side of the cloud"
+        ),
+        CorruptionKind(
+            "points", resample, (4096, 1000, 500, 200, 100), None, "points", "resampled to this many points", integer=True
+        ),
+        CorruptionKind("shuffle", shuffle, (0, 1), 0.0, "on/off", "the points in a random order", integer=True),
+    )
+}
 """Every corruption kind by spec name, in the benchmark's order."""
 
 _SPEC = re.compile(r"^\s*([A-Za-z_]+)\s*=\s*([^=,\s]+)\s*$")
@@ -518,8 +560,10 @@ def parse_spec(spec: str) -> list[tuple[str, float]]:
     for part in spec.split(","):
         m = _SPEC.match(part)
         if m is None:
-            raise InputError(f"corruption spec {part.strip()!r} is not of the form KIND=LEVEL (e.g. 'noise=0.005'); "
-                             f"kinds: {', '.join(KINDS)}")
+            raise InputError(
+                f"corruption spec {part.strip()!r} is not of the form KIND=LEVEL (e.g. 'noise=0.005'); "
+                f"kinds: {', '.join(KINDS)}"
+            )
         name, raw = m.group(1), m.group(2)
         if name not in KINDS:
             raise InputError(f"unknown corruption kind {name!r} in {spec!r}; kinds: {', '.join(KINDS)}")
@@ -549,8 +593,9 @@ def _check_level(kind: CorruptionKind, level) -> None:
         _level(level, f"the level of {kind.name!r}")
 
 
-def corrupt(points, labels, spec: str, rng: np.random.Generator, context: CorruptionContext | None = None
-            ) -> tuple[np.ndarray, np.ndarray]:
+def corrupt(
+    points, labels, spec: str, rng: np.random.Generator, context: CorruptionContext | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Apply the corruption(s) of ``spec`` (``"KIND=LEVEL"``, several joined by commas, applied in order).
 
     Kinds (:data:`KINDS`): ``noise`` (sigma, m), ``axial`` (x sensor sigma), ``outliers``, ``floor``,
@@ -597,7 +642,9 @@ def background_pool(view, camera: PinholeCamera, cloud_points: int | None = None
     mask = np.asarray(view.mask)
     K = len(view.cam_from_part)
     if depth.shape != (camera.height, camera.width) or mask.shape != depth.shape:
-        raise InputError(f"depth {depth.shape} and mask {mask.shape} must have the camera's shape {(camera.height, camera.width)}")
+        raise InputError(
+            f"depth {depth.shape} and mask {mask.shape} must have the camera's shape {(camera.height, camera.width)}"
+        )
     on_object = mask < K
     if not np.any(on_object):
         raise InputError("the view shows no object pixel: there is no silhouette to rank the background by")

@@ -6,11 +6,9 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import DataError
-from ..render.camera import PinholeCamera
 from ..fileio import read_json
+from ..render.camera import PinholeCamera
 from ..versions import CONVENTIONS_VERSION, DATA_FORMAT_VERSION, GENERATOR_VERSION
 from .shards import read_shard, shard_name
 
@@ -20,12 +18,17 @@ __all__ = ["SyntheticDataset", "load_dataset", "check_versions"]
 def check_versions(meta: dict, where) -> None:
     """Refuse a data set made by another generator, under other conventions or in another shard format,
     naming both versions (:class:`DataError`)."""
-    for key, ours in (("format_version", DATA_FORMAT_VERSION), ("generator_version", GENERATOR_VERSION),
-                      ("conventions_version", CONVENTIONS_VERSION)):
+    for key, ours in (
+        ("format_version", DATA_FORMAT_VERSION),
+        ("generator_version", GENERATOR_VERSION),
+        ("conventions_version", CONVENTIONS_VERSION),
+    ):
         theirs = meta.get(key)
         if str(theirs) != str(ours):
-            raise DataError(f"{where}: the data set has {key.replace('_', ' ')} {theirs}, this ucope uses {ours}; "
-                            "generate it again with this ucope (or use the ucope that made it)")
+            raise DataError(
+                f"{where}: the data set has {key.replace('_', ' ')} {theirs}, this ucope uses {ours}; "
+                "generate it again with this ucope (or use the ucope that made it)"
+            )
 
 
 class SyntheticDataset(Sequence):
@@ -50,8 +53,10 @@ class SyntheticDataset(Sequence):
         except (KeyError, ValueError, TypeError) as e:
             raise DataError(f"{where} is not a ucope data set description ({type(e).__name__}: {e})") from None
         if self._num <= 0 or self._shard_size <= 0 or self._num_parts <= 0:
-            raise DataError(f"{where}: num ({self._num}), shard_size ({self._shard_size}) and num_parts ({self._num_parts}) "
-                            "must be positive")
+            raise DataError(
+                f"{where}: num ({self._num}), shard_size ({self._shard_size}) and num_parts ({self._num_parts}) "
+                "must be positive"
+            )
         n_shards = -(-self._num // self._shard_size)
         missing = [s for s in range(n_shards) if not (self.root / shard_name(s)).exists()]
         if missing:
@@ -103,7 +108,9 @@ class SyntheticDataset(Sequence):
         return dict(self._shard(s)[i - s * self._shard_size])
 
     def __repr__(self) -> str:
-        return f"SyntheticDataset({str(self.root)!r}, category={self.category!r}, split={self.meta.get('split')!r}, num={self._num})"
+        return (
+            f"SyntheticDataset({str(self.root)!r}, category={self.category!r}, split={self.meta.get('split')!r}, num={self._num})"
+        )
 
 
 def load_dataset(root: str | Path, cache_bytes: int = 0) -> SyntheticDataset:

@@ -18,15 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
-from ..vocab import JOINT_TYPES
 from ..errors import DataError, InputError
+from ..fileio import atomic_write_json, read_json
 from ..objects.categories import SPLITS, get_category, make_instance
 from ..render.views import ViewConfig, render_view
+from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
+from ..vocab import JOINT_TYPES
 from .images import bop_entries, merge_bop_parts, write_png
 from .sample import background_fields, sample_from_view
 from .scenes import add_adjacent_distractor
-from ..fileio import atomic_write_json, read_json
 from .shards import FORMAT_VERSION, shard_name, write_shard
 
 __all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng"]
@@ -76,13 +76,13 @@ class GenerateConfig:
             raise InputError(f"unknown split {self.split!r}; valid splits: {', '.join(SPLITS)}")
         for name in ("num", "shard_size", "views_per_instance", "max_points"):
             v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or v <= 0:
+            if not isinstance(v, int | np.integer) or v <= 0:
                 raise InputError(f"{name} must be a positive integer, got {v!r}")
         if self.max_points < 16:
             raise InputError(f"max_points must be at least 16, got {self.max_points}")
-        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
+        if not isinstance(self.seed, int | np.integer) or isinstance(self.seed, bool) or self.seed < 0:
             raise InputError(f"seed must be an integer >= 0, got {self.seed!r}")
-        if not isinstance(self.normal_k, (int, np.integer)) or self.normal_k < 3:
+        if not isinstance(self.normal_k, int | np.integer) or self.normal_k < 3:
             raise InputError(f"normal_k must be an integer >= 3, got {self.normal_k!r}")
         if self.scale is not None and not (np.isfinite(self.scale) and self.scale > 0):
             raise InputError(f"scale must be a positive number, got {self.scale!r}")
@@ -96,13 +96,22 @@ class GenerateConfig:
     def settings(self) -> dict:
         """The content-defining settings, as stored in and compared against ``meta.json``."""
         return {
-            "category": self.category, "split": self.split, "num": int(self.num), "seed": int(self.seed),
-            "shard_size": int(self.shard_size), "views_per_instance": int(self.views_per_instance),
-            "max_points": int(self.max_points), "normal_k": int(self.normal_k), "images": bool(self.images),
-            "view": self.view.to_dict(), "background": bool(self.background), "adjacent_distractor": float(self.adjacent_distractor),
+            "category": self.category,
+            "split": self.split,
+            "num": int(self.num),
+            "seed": int(self.seed),
+            "shard_size": int(self.shard_size),
+            "views_per_instance": int(self.views_per_instance),
+            "max_points": int(self.max_points),
+            "normal_k": int(self.normal_k),
+            "images": bool(self.images),
+            "view": self.view.to_dict(),
+            "background": bool(self.background),
+            "adjacent_distractor": float(self.adjacent_distractor),
             "scale": None if self.scale is None else float(self.scale),
             "generator_version": GENERATOR_VERSION,
-            "conventions_version": CONVENTIONS_VERSION, "format_version": FORMAT_VERSION,
+            "conventions_version": CONVENTIONS_VERSION,
+            "format_version": FORMAT_VERSION,
         }
 
     def meta(self) -> dict:
@@ -112,12 +121,16 @@ class GenerateConfig:
         spec = get_category(self.category)
         return {
             **self.settings(),
-            "family": spec.family, "num_parts": spec.num_parts, "part_names": list(spec.part_names),
-            "joint_types": list(spec.joint_types), "joint_type_codes": list(JOINT_TYPES),
-            "symmetry": list(spec.symmetry), "num_shards": self.num_shards, "ucope_version": __version__,
+            "family": spec.family,
+            "num_parts": spec.num_parts,
+            "part_names": list(spec.part_names),
+            "joint_types": list(spec.joint_types),
+            "joint_type_codes": list(JOINT_TYPES),
+            "symmetry": list(spec.symmetry),
+            "num_shards": self.num_shards,
+            "ucope_version": __version__,
             "structure": make_instance(self.category, self.split, 0, self.seed, scale=self.scale).structure(),
         }
-
 
 
 def sample_rng(category: str, split: str, seed: int, index: int) -> np.random.Generator:
@@ -145,17 +158,23 @@ def make_sample(cfg: GenerateConfig, index: int, return_view: bool = False):
     if obj.scale != 1.0:  # a scaled object: the camera keeps its distance relative to the object's size
         spec = dataclasses.replace(spec, distance_range_m=tuple(d * obj.scale for d in spec.distance_range_m))
         if cfg.view.distance_range_m is not None:
-            cfg = dataclasses.replace(cfg, view=dataclasses.replace(cfg.view, distance_range_m=tuple(d * obj.scale for d in cfg.view.distance_range_m)))
+            cfg = dataclasses.replace(
+                cfg, view=dataclasses.replace(cfg.view, distance_range_m=tuple(d * obj.scale for d in cfg.view.distance_range_m))
+            )
     rng = sample_rng(cfg.category, cfg.split, cfg.seed, index)
     for _ in range(50):
         view = render_view(obj, cfg.view, rng, spec)
         if int((view.mask < obj.num_parts).sum()) >= MIN_OBJECT_PIXELS:
             break
     else:  # pragma: no cover - would need a degenerate camera configuration
-        raise InputError(f"could not find a view of {obj.instance_id} with {MIN_OBJECT_PIXELS} object pixels; check the camera settings")
+        raise InputError(
+            f"could not find a view of {obj.instance_id} with {MIN_OBJECT_PIXELS} object pixels; check the camera settings"
+        )
     sample = sample_from_view(obj, view, cfg.view.camera, rng, index, cfg.max_points, cfg.normal_k)
     if cfg.adjacent_distractor > 0 or cfg.background:
-        extra = np.random.default_rng(np.random.SeedSequence(entropy=int(cfg.seed), spawn_key=(*_stream_key(cfg, "scene"), int(index))))
+        extra = np.random.default_rng(
+            np.random.SeedSequence(entropy=int(cfg.seed), spawn_key=(*_stream_key(cfg, "scene"), int(index)))
+        )
         if extra.random() < cfg.adjacent_distractor:
             view, _ = add_adjacent_distractor(view, obj.size_m, sample["points"], cfg.view.camera, extra)
         if cfg.background:
@@ -218,8 +237,10 @@ def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
         raise DataError(f"cannot write to output folder {out}: {e.strerror or e}") from None
     meta_path = out / "meta.json"
     if not meta_path.exists() and any(out.glob("shard_*.npz")):
-        raise DataError(f"{out} holds shards but no meta.json: it is not a data set this command can resume (its settings are "
-                        "unknown); remove the shards or use another --out folder")
+        raise DataError(
+            f"{out} holds shards but no meta.json: it is not a data set this command can resume (its settings are "
+            "unknown); remove the shards or use another --out folder"
+        )
     if meta_path.exists():
         old = read_json(meta_path)
         if not isinstance(old, dict):
@@ -264,7 +285,7 @@ def generate_dataset(
         The output folder.
     """
     cfg.validate()
-    if not isinstance(workers, (int, np.integer)) or workers < 1:
+    if not isinstance(workers, int | np.integer) or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
     out = Path(out)
     all_shards = range(cfg.num_shards)

@@ -61,11 +61,13 @@ def bop_entries(sample: dict) -> tuple[dict, list[dict]]:
     cam = {"cam_K": [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0], "depth_scale": 1.0}
     gt = []
     for k, T in enumerate(np.asarray(sample["cam_from_part"])):
-        gt.append({
-            "obj_id": k + 1,
-            "cam_R_m2c": [float(v) for v in T[:3, :3].reshape(-1)],
-            "cam_t_m2c": [float(v) * 1000.0 for v in T[:3, 3]],
-        })
+        gt.append(
+            {
+                "obj_id": k + 1,
+                "cam_R_m2c": [float(v) for v in T[:3, :3].reshape(-1)],
+                "cam_t_m2c": [float(v) * 1000.0 for v in T[:3, 3]],
+            }
+        )
     return cam, gt
 
 

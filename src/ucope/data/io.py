@@ -39,8 +39,10 @@ def _columns(path: Path, arr: np.ndarray) -> tuple[np.ndarray, np.ndarray | None
     """Points and optional normals from an ``(N, 3 | 6)`` or ``(H, W, 3 | 6)`` numeric array."""
     arr = np.asarray(arr)
     if arr.ndim not in (2, 3) or arr.shape[-1] not in (3, 6):
-        raise DataError(f"{path}: expected an (N, 3) array of points, (N, 6) of points and normals, or an organised (H, W, 3) "
-                        f"cloud, got shape {arr.shape}")
+        raise DataError(
+            f"{path}: expected an (N, 3) array of points, (N, 6) of points and normals, or an organised (H, W, 3) "
+            f"cloud, got shape {arr.shape}"
+        )
     if not np.issubdtype(arr.dtype, np.number) or np.issubdtype(arr.dtype, np.complexfloating):
         raise DataError(f"{path}: point array is not real-valued numbers (dtype {arr.dtype})")
     arr = arr.astype(np.float64)
@@ -153,8 +155,18 @@ def _read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 # ------------------------------------------------------------------------------------------ PCD
-_PCD_TYPES = {("F", 4): "f4", ("F", 8): "f8", ("I", 1): "i1", ("I", 2): "i2", ("I", 4): "i4", ("I", 8): "i8",
-              ("U", 1): "u1", ("U", 2): "u2", ("U", 4): "u4", ("U", 8): "u8"}
+_PCD_TYPES = {
+    ("F", 4): "f4",
+    ("F", 8): "f8",
+    ("I", 1): "i1",
+    ("I", 2): "i2",
+    ("I", 4): "i4",
+    ("I", 8): "i8",
+    ("U", 1): "u1",
+    ("U", 2): "u2",
+    ("U", 4): "u4",
+    ("U", 8): "u8",
+}
 
 
 def lzf_decompress(data: bytes, size: int) -> bytes:
@@ -235,13 +247,15 @@ def _read_pcd(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     except (KeyError, ValueError, IndexError):
         raise DataError(f"{path}: PCD header lacks or has bad FIELDS / SIZE / TYPE / WIDTH / POINTS / DATA") from None
     if not (len(fields) == len(sizes) == len(types) == len(counts)):
-        raise DataError(f"{path}: PCD header has {len(fields)} FIELDS but {len(sizes)} SIZE, {len(types)} TYPE, {len(counts)} COUNT")
+        raise DataError(
+            f"{path}: PCD header has {len(fields)} FIELDS but {len(sizes)} SIZE, {len(types)} TYPE, {len(counts)} COUNT"
+        )
     if not all(f in fields for f in ("x", "y", "z")):
         raise DataError(f"{path}: PCD file has no x y z fields (fields: {fields})")
     if n < 0 or width * height != n:
         raise DataError(f"{path}: PCD header says POINTS {n} but WIDTH x HEIGHT = {width} x {height}")
     dtype = []
-    for i, (f, s, t, c) in enumerate(zip(fields, sizes, types, counts)):
+    for i, (f, s, t, c) in enumerate(zip(fields, sizes, types, counts, strict=False)):
         code = _PCD_TYPES.get((t, s))
         if code is None:
             raise DataError(f"{path}: unsupported PCD field type {t}{s} (field {f!r})")
@@ -264,13 +278,15 @@ def _read_pcd(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
             raise DataError(f"{path}: truncated PCD binary_compressed data")
         csize, usize = (int(v) for v in np.frombuffer(raw, dtype="<u4", count=2, offset=pos))
         if usize != n * dt.itemsize or len(raw) - pos - 8 < csize:
-            raise DataError(f"{path}: PCD binary_compressed sizes do not fit {n} points ({csize} compressed, {usize} uncompressed bytes)")
+            raise DataError(
+                f"{path}: PCD binary_compressed sizes do not fit {n} points ({csize} compressed, {usize} uncompressed bytes)"
+            )
         try:
             data = lzf_decompress(raw[pos + 8 : pos + 8 + csize], usize)
         except DataError as e:
             raise DataError(f"{path}: corrupt PCD binary_compressed data ({e})") from None
         cols, off = {}, 0  # fields are stored one after the other (structure of arrays)
-        for f, s, t, c in zip(fields, sizes, types, counts):
+        for f, s, t, c in zip(fields, sizes, types, counts, strict=False):
             block = np.frombuffer(data, dtype="<" + _PCD_TYPES[(t, s)], count=n * c, offset=off).reshape(n, c)
             cols[f] = block[:, 0].astype(np.float64)
             off += n * s * c
@@ -330,7 +346,9 @@ def read_intrinsics(path: str | Path) -> np.ndarray:
     if isinstance(d, dict) and d and all(isinstance(v, dict) and "cam_K" in v for v in d.values()):  # BOP scene_camera
         Ks = {json.dumps(v["cam_K"]) for v in d.values()}
         if len(Ks) > 1:
-            raise DataError(f"{path}: a BOP scene_camera.json with {len(Ks)} different cameras; write the one you need to its own JSON")
+            raise DataError(
+                f"{path}: a BOP scene_camera.json with {len(Ks)} different cameras; write the one you need to its own JSON"
+            )
         d = next(iter(d.values()))
     try:
         if all(k in d for k in ("fx", "fy", "cx", "cy")):

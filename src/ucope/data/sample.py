@@ -50,8 +50,17 @@ BACKGROUND_BAND = 1.25
 times the object's pixels (enough for a floor of 100 % of the object's points)."""
 
 SAMPLE_ARRAY_FIELDS = (
-    "points", "normals", "part_labels", "cam_from_part", "size_m", "joint_type",
-    "joint_pivot", "joint_axis", "joint_state", "cam_from_object", "intrinsics",
+    "points",
+    "normals",
+    "part_labels",
+    "cam_from_part",
+    "size_m",
+    "joint_type",
+    "joint_pivot",
+    "joint_axis",
+    "joint_state",
+    "cam_from_object",
+    "intrinsics",
 )
 
 
@@ -107,8 +116,11 @@ def background_fields(view: RenderedView, camera: PinholeCamera, num_points: int
     n_obj = int(np.count_nonzero((view.mask < len(view.cam_from_part)) & (view.depth_mm > 0)))
     band = min(len(pool.rank), int(round(BACKGROUND_BAND * n_obj)))
     keep = np.flatnonzero(rng.random(band) < 1.0 / pool.pixels_per_point)
-    return {"bg_points": pool.points[keep].astype(np.float32), "bg_rank": pool.rank[keep].astype(np.float32),
-            "bg_clutter": np.asarray(pool.clutter[keep], dtype=bool)}
+    return {
+        "bg_points": pool.points[keep].astype(np.float32),
+        "bg_rank": pool.rank[keep].astype(np.float32),
+        "bg_clutter": np.asarray(pool.clutter[keep], dtype=bool),
+    }
 
 
 def check_sample(sample: dict) -> None:
@@ -119,9 +131,17 @@ def check_sample(sample: dict) -> None:
     P = len(sample["points"])
     K = len(sample["size_m"])
     want = {
-        "points": (P, 3), "normals": (P, 3), "part_labels": (P,), "cam_from_part": (K, 4, 4), "size_m": (K, 3),
-        "joint_type": (K - 1,), "joint_pivot": (K - 1, 3), "joint_axis": (K - 1, 3), "joint_state": (K - 1,),
-        "cam_from_object": (4, 4), "intrinsics": (4,),
+        "points": (P, 3),
+        "normals": (P, 3),
+        "part_labels": (P,),
+        "cam_from_part": (K, 4, 4),
+        "size_m": (K, 3),
+        "joint_type": (K - 1,),
+        "joint_pivot": (K - 1, 3),
+        "joint_axis": (K - 1, 3),
+        "joint_state": (K - 1,),
+        "cam_from_object": (4, 4),
+        "intrinsics": (4,),
     }
     if "bg_points" in sample:
         M = len(sample["bg_points"])

@@ -121,7 +121,7 @@ def add_adjacent_distractor(view, size_m: np.ndarray, points: np.ndarray, camera
     obj = view.mask < K
     near_obj = binary_dilation(obj, structure=np.ones((3, 3), bool))
     touching, last = False, None
-    for attempt in range(1, tries + 1):
+    for attempt in range(1, tries + 1):  # noqa: B007 (read after the loop)
         side = 1.0 if rng.random() < 0.5 else -1.0
         for mesh, shape, t, b in _distractor_placements(rng, centre, lo, ext, right, back, side, points_obj):
             v_cam = np.asarray(mesh.vertices) @ view.cam_from_object[:3, :3].T + view.cam_from_object[:3, 3]
@@ -139,6 +139,14 @@ def add_adjacent_distractor(view, size_m: np.ndarray, points: np.ndarray, camera
     depth_mm[write] = depth_to_mm(depth_d)[write]
     mask = view.mask.copy()
     mask[write] = CLUTTER_LABEL
-    info = {"shape": shape, "side": "right" if side > 0 else "left", "lateral": t, "behind": b, "pixels": int(write.sum()),
-            "touching": touching, "tries": attempt, "overlap_px": int((front & obj).sum())}
+    info = {
+        "shape": shape,
+        "side": "right" if side > 0 else "left",
+        "lateral": t,
+        "behind": b,
+        "pixels": int(write.sum()),
+        "touching": touching,
+        "tries": attempt,
+        "overlap_px": int((front & obj).sum()),
+    }
     return dataclasses.replace(view, depth_mm=depth_mm, mask=mask), info

@@ -21,7 +21,16 @@ from ..versions import DATA_FORMAT_VERSION as FORMAT_VERSION
 __all__ = ["FORMAT_VERSION", "write_shard", "read_shard", "shard_name"]
 
 _POINT_FIELDS = ("points", "normals", "part_labels")
-_STACK_FIELDS = ("cam_from_part", "size_m", "joint_type", "joint_pivot", "joint_axis", "joint_state", "cam_from_object", "intrinsics")
+_STACK_FIELDS = (
+    "cam_from_part",
+    "size_m",
+    "joint_type",
+    "joint_pivot",
+    "joint_axis",
+    "joint_state",
+    "cam_from_object",
+    "intrinsics",
+)
 
 
 def shard_name(shard: int) -> str:
@@ -72,7 +81,9 @@ def read_shard(path: str | os.PathLike, num_parts: int | None = None, category: 
     except FileNotFoundError:
         raise DataError(f"shard {path} does not exist (was the data set generated completely?)") from None
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, zipfile.LargeZipFile) as e:
-        raise DataError(f"shard {path} is truncated or corrupt ({type(e).__name__}: {e}); delete it and re-run `ucope generate` to rebuild it") from None
+        raise DataError(
+            f"shard {path} is truncated or corrupt ({type(e).__name__}: {e}); delete it and re-run `ucope generate` to rebuild it"
+        ) from None
     try:
         if int(data["format_version"]) != FORMAT_VERSION:
             raise DataError(f"shard {path} has format version {int(data['format_version'])}, this ucope reads {FORMAT_VERSION}")
@@ -111,7 +122,10 @@ def _check_shard(path, data: dict, n: int, num_parts: int | None, category: str 
     off = data["offsets"]
     P = len(data["points"])
     if n < 1 or off.ndim != 1 or off[0] != 0 or off[-1] != P or np.any(np.diff(off) < 0):
-        raise DataError(f"shard {path} has inconsistent offsets (first {off[:1].tolist()}, last {off[-1:].tolist()}, {P} points); it is corrupt")
+        raise DataError(
+            f"shard {path} has inconsistent offsets (first {off[:1].tolist()}, last {off[-1:].tolist()}, {P} points); it is "
+            "corrupt"
+        )
     for k in ("normals", "part_labels"):
         if len(data[k]) != P:
             raise DataError(f"shard {path}: {k} has {len(data[k])} rows for {P} points; it is corrupt")
@@ -130,10 +144,19 @@ def _check_shard(path, data: dict, n: int, num_parts: int | None, category: str 
         raise DataError(f"shard {path} holds samples of {K} parts, meta.json says {num_parts}")
     labels = data["part_labels"]
     if K is not None and len(labels) and (int(labels.min()) < 0 or int(labels.max()) >= K):
-        raise DataError(f"shard {path} holds part labels {int(labels.min())}..{int(labels.max())}, outside 0..{K - 1}; it is corrupt")
+        raise DataError(
+            f"shard {path} holds part labels {int(labels.min())}..{int(labels.max())}, outside 0..{K - 1}; it is corrupt"
+        )
     if "bg_offsets" in data:
         bo, M = data["bg_offsets"], len(data["bg_points"])
-        if len(bo) != n + 1 or bo[0] != 0 or bo[-1] != M or np.any(np.diff(bo) < 0) or len(data["bg_rank"]) != M or len(data["bg_clutter"]) != M:
+        if (
+            len(bo) != n + 1
+            or bo[0] != 0
+            or bo[-1] != M
+            or np.any(np.diff(bo) < 0)
+            or len(data["bg_rank"]) != M
+            or len(data["bg_clutter"]) != M
+        ):
             raise DataError(f"shard {path} has inconsistent background offsets; it is corrupt")
         if not np.all(np.isfinite(data["bg_points"])):
             raise DataError(f"shard {path} holds non-finite background points; it is corrupt")

@@ -30,12 +30,21 @@ class GeneratedSamples(Sequence):
         config: optional :class:`GenerateConfig` overriding the defaults (its ``num`` is ignored).
     """
 
-    def __init__(self, category: str, split: str = "train", seed: int = 0, epoch_size: int = 4000,
-                 views_per_instance: int = 8, config: GenerateConfig | None = None):
+    def __init__(
+        self,
+        category: str,
+        split: str = "train",
+        seed: int = 0,
+        epoch_size: int = 4000,
+        views_per_instance: int = 8,
+        config: GenerateConfig | None = None,
+    ):
         if int(epoch_size) <= 0:
             raise InputError(f"epoch_size must be positive, got {epoch_size}")
         if config is None:
-            config = GenerateConfig(category=category, split=split, seed=seed, num=STREAM_LENGTH, views_per_instance=views_per_instance)
+            config = GenerateConfig(
+                category=category, split=split, seed=seed, num=STREAM_LENGTH, views_per_instance=views_per_instance
+            )
         else:
             config = GenerateConfig(**{**config.__dict__, "num": STREAM_LENGTH})
         config.validate()
@@ -65,4 +74,7 @@ class GeneratedSamples(Sequence):
 
     def __repr__(self) -> str:
         c = self.config
-        return f"GeneratedSamples({c.category!r}, split={c.split!r}, seed={c.seed}, epoch_size={self.epoch_size}, epoch={self.epoch})"
+        return (
+            f"GeneratedSamples({c.category!r}, split={c.split!r}, seed={c.seed}, "
+            f"epoch_size={self.epoch_size}, epoch={self.epoch})"
+        )

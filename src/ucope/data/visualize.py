@@ -30,16 +30,18 @@ def draw_sample(ax, sample: dict, title: str | None = None, max_points: int = 30
     corners = to_plot_axes(box_corners(np.asarray(sample["cam_from_part"]), np.asarray(sample["size_m"])))
     for k, c in enumerate(corners):
         for a, b in BOX_EDGES:
-            ax.plot(*zip(c[a], c[b]), box_style, color=PART_COLOURS[k % len(PART_COLOURS)], lw=1.0)
+            ax.plot(*zip(c[a], c[b], strict=False), box_style, color=PART_COLOURS[k % len(PART_COLOURS)], lw=1.0)
         # part frame axes: x red, y green, z blue, a quarter of the box
         T = np.asarray(sample["cam_from_part"])[k]
         L = 0.25 * float(np.min(np.asarray(sample["size_m"])[k])) + 1e-3
         o = T[:3, 3]
-        for d, colour in zip(T[:3, :3].T, ("r", "g", "b")):
+        for d, colour in zip(T[:3, :3].T, ("r", "g", "b"), strict=False):
             seg = to_plot_axes(np.stack([o, o + L * d]))
             ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color=colour, lw=1.5)
     diag = float(np.linalg.norm(np.ptp(pts, axis=0))) if len(pts) else 0.1
-    for piv, axis in zip(np.asarray(sample["joint_pivot"]).reshape(-1, 3), np.asarray(sample["joint_axis"]).reshape(-1, 3)):
+    for piv, axis in zip(
+        np.asarray(sample["joint_pivot"]).reshape(-1, 3), np.asarray(sample["joint_axis"]).reshape(-1, 3), strict=False
+    ):
         seg = to_plot_axes(np.stack([piv - 0.35 * diag * axis, piv + 0.35 * diag * axis]))
         ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color="k", lw=2.0)
         ax.scatter(*to_plot_axes(piv), color="k", s=12)
@@ -76,7 +78,9 @@ def plot_samples(samples: list[dict], out: str | Path, titles: list[str] | None 
     return save_figure(fig, out)
 
 
-def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_deg: float = 35.0, elevation_deg: float = 25.0) -> Path:
+def plot_object(
+    obj, out: str | Path, state=None, title: str | None = None, yaw_deg: float = 35.0, elevation_deg: float = 25.0
+) -> Path:
     """Draw an :class:`~ucope.objects.articulation.ArticulatedObject` at ``state`` (default: rest).
 
     The object is ray cast from an oblique camera (so occlusion is exact) and shaded by part, with the
@@ -99,7 +103,10 @@ def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_
     eye = centre + 1.6 * diag * np.array([np.cos(elev) * np.sin(yaw), np.sin(elev), np.cos(elev) * np.cos(yaw)])
     cam_from_obj = invert_transform(make_transform(look_at_rotation(eye, centre), eye))
     depth, labels = raycast_depth(apply_transform(cam_from_obj, v), f, lab, cam)
-    pts = cam.pixel_rays(*np.mgrid[0 : cam.height, 0 : cam.width].reshape(2, -1)).reshape(cam.height, cam.width, 3) * depth[..., None]
+    pts = (
+        cam.pixel_rays(*np.mgrid[0 : cam.height, 0 : cam.width].reshape(2, -1)).reshape(cam.height, cam.width, 3)
+        * depth[..., None]
+    )
     n = np.cross(np.gradient(pts, axis=1), np.gradient(pts, axis=0))
     n /= np.linalg.norm(n, axis=-1, keepdims=True) + 1e-12
     shade = 0.35 + 0.65 * np.abs(n[..., 2])
@@ -111,16 +118,16 @@ def plot_object(obj, out: str | Path, state=None, title: str | None = None, yaw_
     fig, ax = plt.subplots(figsize=(4.8, 4.0), dpi=110)
     ax.imshow(img)
     uv = lambda p: cam.project(apply_transform(cam_from_obj, np.atleast_2d(p)))  # noqa: E731
-    for k, (part, T) in enumerate(zip(obj.parts, poses)):
+    for k, (part, T) in enumerate(zip(obj.parts, poses, strict=False)):
         c = uv(box_corners(T, part.size_m))
         for a, b in BOX_EDGES:
             ax.plot(c[[a, b], 0], c[[a, b], 1], color=PART_COLOURS[k % len(PART_COLOURS)], lw=0.9)
         L = 0.3 * float(np.max(part.size_m))
-        for d, colour in zip(T[:3, :3].T, ("r", "g", "b")):
+        for d, colour in zip(T[:3, :3].T, ("r", "g", "b"), strict=False):
             seg = uv(np.stack([T[:3, 3], T[:3, 3] + L * d]))
             ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=2.0)
     piv, axes = obj.joints_in_object(state)
-    for p, a in zip(piv, axes):
+    for p, a in zip(piv, axes, strict=False):
         seg = uv(np.stack([p - 0.25 * diag * a, p + 0.25 * diag * a]))
         ax.annotate("", xy=seg[1], xytext=seg[0], arrowprops=dict(arrowstyle="-|>", color="k", lw=1.8))
     ax.set_xlim(0, cam.width)

@@ -14,4 +14,13 @@ from .estimator import Estimator
 from .inputs import MIN_POINTS, label_points, prepare_points, rgbd_points
 from .result import JointEstimate, PartEstimate, PoseResult
 
-__all__ = ["Estimator", "PoseResult", "PartEstimate", "JointEstimate", "MIN_POINTS", "prepare_points", "rgbd_points", "label_points"]
+__all__ = [
+    "Estimator",
+    "PoseResult",
+    "PartEstimate",
+    "JointEstimate",
+    "MIN_POINTS",
+    "prepare_points",
+    "rgbd_points",
+    "label_points",
+]

@@ -51,8 +51,15 @@ FEATURES = (
 """Per-part inputs of the calibration, in order (:func:`part_features`)."""
 
 
-def part_features(votes: Mapping[str, Any], labels: np.ndarray, seg_prob: np.ndarray | None, points: np.ndarray,
-                  num_input_points: int, joint_parents: Sequence[int], joint_children: Sequence[int]) -> np.ndarray:
+def part_features(
+    votes: Mapping[str, Any],
+    labels: np.ndarray,
+    seg_prob: np.ndarray | None,
+    points: np.ndarray,
+    num_input_points: int,
+    joint_parents: Sequence[int],
+    joint_children: Sequence[int],
+) -> np.ndarray:
     """``(K, len(FEATURES))`` float64 features of every part of one estimate.
 
     Args:
@@ -98,7 +105,9 @@ def _sigmoid(x: np.ndarray) -> np.ndarray:
     return 0.5 * (1.0 + np.tanh(0.5 * x))
 
 
-def fit_logistic(X: np.ndarray, y: np.ndarray, l2: float = 1.0, iters: int = 50) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+def fit_logistic(
+    X: np.ndarray, y: np.ndarray, l2: float = 1.0, iters: int = 50
+) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
     """L2-regularised logistic regression by Newton's method on standardised features.
 
     Args:
@@ -188,23 +197,44 @@ class Calibration:
         return _sigmoid(z)
 
     def to_dict(self) -> dict:
-        return {"features": list(FEATURES), "coef": [float(x) for x in self.coef], "intercept": float(self.intercept),
-                "mean": [float(x) for x in self.mean], "std": [float(x) for x in self.std],
-                "part_bias": [float(x) for x in self.part_bias], "threshold": float(self.threshold), "info": self.info or {}}
+        return {
+            "features": list(FEATURES),
+            "coef": [float(x) for x in self.coef],
+            "intercept": float(self.intercept),
+            "mean": [float(x) for x in self.mean],
+            "std": [float(x) for x in self.std],
+            "part_bias": [float(x) for x in self.part_bias],
+            "threshold": float(self.threshold),
+            "info": self.info or {},
+        }
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Calibration:
         try:
             if list(d["features"]) != list(FEATURES):
                 raise InputError(f"calibration features {d['features']} are not this ucope's {list(FEATURES)}")
-            return cls(coef=tuple(d["coef"]), intercept=float(d["intercept"]), mean=tuple(d["mean"]), std=tuple(d["std"]),
-                       part_bias=tuple(d["part_bias"]), threshold=float(d.get("threshold", 0.5)), info=dict(d.get("info") or {}))
+            return cls(
+                coef=tuple(d["coef"]),
+                intercept=float(d["intercept"]),
+                mean=tuple(d["mean"]),
+                std=tuple(d["std"]),
+                part_bias=tuple(d["part_bias"]),
+                threshold=float(d.get("threshold", 0.5)),
+                info=dict(d.get("info") or {}),
+            )
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"malformed score calibration ({type(e).__name__}: {e})") from None
 
     @classmethod
-    def fit(cls, features: np.ndarray, success: np.ndarray, part_index: np.ndarray, num_parts: int, l2: float = 1.0,
-            info: dict | None = None) -> Calibration:
+    def fit(
+        cls,
+        features: np.ndarray,
+        success: np.ndarray,
+        part_index: np.ndarray,
+        num_parts: int,
+        l2: float = 1.0,
+        info: dict | None = None,
+    ) -> Calibration:
         """Fit on ``(n, d)`` part features, their ``(n,)`` 0/1 success and ``(n,)`` part indices (a one-hot of
         the part is fitted beside the features and folded into ``part_bias``). The threshold starts at 0.5;
         the fitting script sets it from the data (``dataclasses.replace``)."""
@@ -215,4 +245,12 @@ class Calibration:
         # the one-hot columns were standardised: fold them back into raw per-part offsets
         shift = -float(np.sum(mean[d:] / std[d:] * coef[d:]))
         pb = np.concatenate([[0.0], coef[d:] / std[d:]]) + shift
-        return cls(coef=tuple(coef[:d]), intercept=b, mean=tuple(mean[:d]), std=tuple(std[:d]), part_bias=tuple(pb), threshold=0.5, info=info)
+        return cls(
+            coef=tuple(coef[:d]),
+            intercept=b,
+            mean=tuple(mean[:d]),
+            std=tuple(std[:d]),
+            part_bias=tuple(pb),
+            threshold=0.5,
+            info=info,
+        )

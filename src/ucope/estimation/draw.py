@@ -211,7 +211,7 @@ def _box_segments(cam_from_part, size_m, intrinsics) -> list[np.ndarray]:
     uv, ok = project(corners, intrinsics)  # (K, 8, 2), (K, 8)
     seg = uv[:, BOX_EDGES]  # (K, 12, 2, 2)
     keep = ok[:, BOX_EDGES].all(axis=-1)  # (K, 12)
-    return [s[m] for s, m in zip(seg, keep)]
+    return [s[m] for s, m in zip(seg, keep, strict=False)]
 
 
 def _joint_segment(pivot, axis, length: float):
@@ -264,7 +264,7 @@ def draw_overlay(ax, scene: Scene, intrinsics, image=None, kind: str = "depth", 
         ax.imshow(img, interpolation="nearest")
     halo = [pe.Stroke(linewidth=3.2, foreground="white"), pe.Normal()]
     colours = part_colours(scene.objects)
-    for obj, cols in zip(scene.objects, colours):
+    for obj, cols in zip(scene.objects, colours, strict=False):
         r = obj.result
         diag = _object_diag(obj)
         if obj.points is not None:  # the object's points, tinted by predicted part (the segmentation)
@@ -283,9 +283,9 @@ def draw_overlay(ax, scene: Scene, intrinsics, image=None, kind: str = "depth", 
                 rasterized=True,
             )
         if obj.sample is not None:
-            for segs, c in zip(_box_segments(obj.sample["cam_from_part"], obj.sample["size_m"], K), cols):
+            for segs, c in zip(_box_segments(obj.sample["cam_from_part"], obj.sample["size_m"], K), cols, strict=False):
                 ax.add_collection(LineCollection(segs, colors=c, linewidths=1.1, linestyles=(0, (4, 3)), alpha=0.9))
-        for segs, c in zip(_box_segments(r.cam_from_part, r.size_m, K), cols):
+        for segs, c in zip(_box_segments(r.cam_from_part, r.size_m, K), cols, strict=False):
             ax.add_collection(LineCollection(segs, colors=c, linewidths=1.6, path_effects=halo))
         for p in r.parts:  # axis triads: x red, y green, z blue
             T = p.cam_from_part
@@ -314,7 +314,7 @@ def draw_overlay(ax, scene: Scene, intrinsics, image=None, kind: str = "depth", 
         if obj.sample is not None:
             piv = np.asarray(obj.sample.get("joint_pivot", np.zeros((0, 3))), np.float64).reshape(-1, 3)
             axes = np.asarray(obj.sample.get("joint_axis", np.zeros((0, 3))), np.float64).reshape(-1, 3)
-            for p0, u in zip(piv, axes):
+            for p0, u in zip(piv, axes, strict=False):
                 if np.all(np.isfinite(p0)) and np.all(np.isfinite(u)):
                     seg, ok = project(_joint_segment(p0, u, 0.5 * diag), K)
                     if ok.all():
@@ -360,11 +360,11 @@ def legend_handles(scene: Scene) -> list:
     from matplotlib.lines import Line2D
 
     handles = []
-    for obj, cols in zip(scene.objects, part_colours(scene.objects)):
+    for obj, cols in zip(scene.objects, part_colours(scene.objects), strict=False):
         part_text, joint_text = legend_lines(obj)
-        handles += [Line2D([], [], color=c, lw=2.2, label=t) for c, t in zip(cols, part_text)]
+        handles += [Line2D([], [], color=c, lw=2.2, label=t) for c, t in zip(cols, part_text, strict=False)]
         handles += [Line2D([], [], color="k", lw=2.0, marker=">", markersize=4, label=t) for t in joint_text]
-    handles += [Line2D([], [], color=c, lw=1.6, label=f"part {n} axis") for c, n in zip(AXIS_COLOURS, "xyz")]
+    handles += [Line2D([], [], color=c, lw=1.6, label=f"part {n} axis") for c, n in zip(AXIS_COLOURS, "xyz", strict=False)]
     if any(o.sample is not None for o in scene.objects):
         handles.append(Line2D([], [], color="0.3", lw=1.1, ls=(0, (4, 3)), label="ground truth (dashed boxes, grey joint axes)"))
     return handles
@@ -379,7 +379,7 @@ def _draw_boxes3d(ax, cam_from_part, size_m, colours, style: str, lw: float) -> 
     corners = to_plot_axes(box_corners(np.asarray(cam_from_part).reshape(-1, 4, 4), np.asarray(size_m).reshape(-1, 3)))
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
-    for c, colour in zip(corners, colours):
+    for c, colour in zip(corners, colours, strict=False):
         ax.add_collection3d(Line3DCollection(c[BOX_EDGES], colors=colour, linewidths=lw, linestyles=style))
     return corners.reshape(-1, 3)
 
@@ -430,7 +430,7 @@ def draw_result(
     if sample is not None:
         allp.append(_draw_boxes3d(ax, sample["cam_from_part"], sample["size_m"], cols, "--", 0.8))
         piv = np.asarray(sample.get("joint_pivot", np.zeros((0, 3))), np.float64).reshape(-1, 3)
-        for p0, u in zip(piv, np.asarray(sample.get("joint_axis", np.zeros((0, 3))), np.float64).reshape(-1, 3)):
+        for p0, u in zip(piv, np.asarray(sample.get("joint_axis", np.zeros((0, 3))), np.float64).reshape(-1, 3), strict=False):
             if np.all(np.isfinite(p0)) and np.all(np.isfinite(u)):
                 seg = to_plot_axes(_joint_segment(p0, u, 0.5 * diag))
                 ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], color="0.55", lw=1.5, ls="--")
@@ -441,7 +441,7 @@ def draw_result(
 
         part_text, _ = legend_lines(DrawnObject(result, errors=errors))
         ax.legend(
-            handles=[Line2D([], [], color=c, lw=2, label=t.split("  |")[0]) for c, t in zip(cols, part_text)],
+            handles=[Line2D([], [], color=c, lw=2, label=t.split("  |")[0]) for c, t in zip(cols, part_text, strict=False)],
             loc="upper left",
             fontsize=6,
             frameon=False,
@@ -512,7 +512,7 @@ def _draw_scene_row(fig, gs_row, legend_slot, scene: Scene, with_rgb: bool) -> N
     colours = part_colours(scene.objects)
     allp = [
         draw_result(ax3, o.points, o.result, o.sample, None, colours=c, errors=o.errors, legend=False)
-        for o, c in zip(scene.objects, colours)
+        for o, c in zip(scene.objects, colours, strict=False)
     ]
     _frame3d(ax3, np.concatenate(allp))
     times = [o.result.timings_ms.get("total") for o in scene.objects if o.result.timings_ms.get("total") is not None]

@@ -31,12 +31,12 @@ import numpy as np
 import torch
 
 from ..errors import InputError
-from ..priors import cloud_radius
 from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
 from ..model.checkpoint import find_model, load_model
 from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
+from ..priors import cloud_radius
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
 from .confidence import Calibration, part_features
@@ -105,17 +105,29 @@ class Estimator:
             seed, an unknown or unavailable device...), naming it.
     """
 
-    def __init__(self, model: UCOPENet, name: str = "", num_pairs: int = 20000, awareness: bool = True,
-                 refine: bool = False, seed: int = 0, device: str | torch.device = "cpu", max_input_points: int = 4096,
-                 resolve_flips: bool = True, score_filter: bool | None = None, segment_pairs: bool | None = None,
-                 options: VotingOptions | None = None, calibration: Calibration | None = None):
+    def __init__(
+        self,
+        model: UCOPENet,
+        name: str = "",
+        num_pairs: int = 20000,
+        awareness: bool = True,
+        refine: bool = False,
+        seed: int = 0,
+        device: str | torch.device = "cpu",
+        max_input_points: int = 4096,
+        resolve_flips: bool = True,
+        score_filter: bool | None = None,
+        segment_pairs: bool | None = None,
+        options: VotingOptions | None = None,
+        calibration: Calibration | None = None,
+    ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
-        if not (isinstance(num_pairs, (int, np.integer)) and 10 <= num_pairs <= MAX_PAIRS):
+        if not (isinstance(num_pairs, int | np.integer) and 10 <= num_pairs <= MAX_PAIRS):
             raise InputError(f"num_pairs must be an integer from 10 to {MAX_PAIRS}, got {num_pairs!r}")
-        if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
+        if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
             raise InputError(f"seed must be an integer >= 0, got {seed!r}")
-        if not (isinstance(max_input_points, (int, np.integer)) and max_input_points >= MIN_POINTS):
+        if not (isinstance(max_input_points, int | np.integer) and max_input_points >= MIN_POINTS):
             raise InputError(f"max_input_points must be an integer >= {MIN_POINTS}, got {max_input_points!r}")
         device = _device(device)
         self.model = model.to(device).eval()
@@ -145,7 +157,7 @@ class Estimator:
 
         ``refine=None`` takes the model's own default (``info.defaults.refine`` of its JSON, set when it
         was packaged where the refinement measured better). Other keyword arguments: as the constructor."""
-        if not isinstance(model, (str, os.PathLike)) or not str(model):
+        if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
         net, meta = load_model(path)
@@ -206,47 +218,85 @@ class Estimator:
             else:
                 pair_idx = self._sample_pairs(labels, rng)
                 # The axis heads are computed later, for the pairs that vote the axes only.
-                out.update(self.model.pair_heads(enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device),
-                                                 heads=VOTE_HEADS, return_hidden=True))
+                out.update(
+                    self.model.pair_heads(
+                        enc, P, Nn, torch.from_numpy(pair_idx)[None].to(self.device), heads=VOTE_HEADS, return_hidden=True
+                    )
+                )
                 hidden = out.pop("pair_hidden")[0]  # (K, M, H)
         t3 = time.perf_counter()
         if cfg.head == "regression":
-            v = regressed_object(p_net, out, self.priors, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips)
+            v = regressed_object(
+                p_net, out, self.priors, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips
+            )
         else:
+
             def axis_heads(k: int, rows: torch.Tensor) -> dict:
                 with torch.no_grad():
                     return self.model.pair_outputs(hidden[k].index_select(0, rows.to(hidden.device)), AXIS_HEADS, part=k)
 
-            v = vote_object(p_net, n_net, pair_idx, out, self.priors, awareness=self.awareness, refine=self.refine,
-                            options=self.options, resolve_flips=self.resolve_flips, axis_heads=axis_heads, shapes=self.shapes,
-                            score_filter=self.score_filter)
+            v = vote_object(
+                p_net,
+                n_net,
+                pair_idx,
+                out,
+                self.priors,
+                awareness=self.awareness,
+                refine=self.refine,
+                options=self.options,
+                resolve_flips=self.resolve_flips,
+                axis_heads=axis_heads,
+                shapes=self.shapes,
+                score_filter=self.score_filter,
+            )
         K = cfg.num_parts
         seg_prob = enc["seg_logits"][0].softmax(-1).cpu().numpy() if "seg_logits" in enc else None
-        feats = part_features(v, labels, seg_prob, p_net, len(raw), [j.parent for j in self.priors.joints],
-                              [j.child for j in self.priors.joints])
+        feats = part_features(
+            v, labels, seg_prob, p_net, len(raw), [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
+        )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
         parts, joints = self._estimates(v, scores)
         for j in np.flatnonzero(v.get("joint_clamped", [])):
-            warnings.append(f"joint {joints[j].parent}->{joints[j].child}: the voted state lay outside the category's limits; "
-                            "it was clamped onto them (and the child moved), its score halved")
+            warnings.append(
+                f"joint {joints[j].parent}->{joints[j].child}: the voted state lay outside the category's limits; "
+                "it was clamped onto them (and the child moved), its score halved"
+            )
         if self.calibration is not None and float(scores.min()) < self.calibration.threshold:
             worst = int(np.argmin(scores))
-            warnings.append(f"low confidence: part {parts[worst].label!r} is likely wrong (score {scores[worst]:.2f} below "
-                            f"the model's threshold {self.calibration.threshold:.2f})")
+            warnings.append(
+                f"low confidence: part {parts[worst].label!r} is likely wrong (score {scores[worst]:.2f} below "
+                f"the model's threshold {self.calibration.threshold:.2f})"
+            )
         t4 = time.perf_counter()
         background = labels >= K  # the background class (models with one): not the object
         if background.mean() > 0.5:
-            warnings.append(f"{100 * background.mean():.0f} % of the points were segmented as not the object: "
-                            "is the cloud one segmented object?")
+            warnings.append(
+                f"{100 * background.mean():.0f} % of the points were segmented as not the object: "
+                "is the cloud one segmented object?"
+            )
         for k, pe in enumerate(parts):
             if np.count_nonzero(labels == k) < 3:
                 warnings.append(f"part {pe.label!r}: fewer than 3 points were segmented as it; its pose is a guess")
         all_labels = label_points(raw, finite, p_net, np.where(background, -1, labels))
         t5 = time.perf_counter()
-        timings = {"preprocess": 1e3 * (t1 - t0 + t5 - t4), "encoder": 1e3 * (t2 - t1), "pair_encoder": 1e3 * (t3 - t2),
-                   "voting": 1e3 * (t4 - t3), "total": 1e3 * (t5 - t0)}
-        return PoseResult(category=cfg.category, parts=parts, joints=joints, part_labels=all_labels,
-                          timings_ms=timings, model=self.name, num_points=len(raw), warnings=warnings, features=feats)
+        timings = {
+            "preprocess": 1e3 * (t1 - t0 + t5 - t4),
+            "encoder": 1e3 * (t2 - t1),
+            "pair_encoder": 1e3 * (t3 - t2),
+            "voting": 1e3 * (t4 - t3),
+            "total": 1e3 * (t5 - t0),
+        }
+        return PoseResult(
+            category=cfg.category,
+            parts=parts,
+            joints=joints,
+            part_labels=all_labels,
+            timings_ms=timings,
+            model=self.name,
+            num_points=len(raw),
+            warnings=warnings,
+            features=feats,
+        )
 
     def _extent_warnings(self, pts: np.ndarray, units: str) -> list[str]:
         """Refuse a cloud far outside the sizes the model was trained on; warn about one outside them."""
@@ -258,8 +308,10 @@ class Estimator:
         if lo / EXTENT_REFUSE <= r <= hi * EXTENT_REFUSE:
             if lo / EXTENT_WARN <= r <= hi * EXTENT_WARN:
                 return []
-            return [f"the cloud's size ({r:.3g} m, 90th-percentile radius) is outside the {lo:.3g}-{hi:.3g} m the "
-                    f"{self.category} model was trained on: poses and boxes may be off"]
+            return [
+                f"the cloud's size ({r:.3g} m, 90th-percentile radius) is outside the {lo:.3g}-{hi:.3g} m the "
+                f"{self.category} model was trained on: poses and boxes may be off"
+            ]
         hint = ""
         for unit, factor in (("mm", 1000.0), ("cm", 100.0)):
             if units == "m" and lo / 3 <= r / factor <= hi * 3:
@@ -268,8 +320,10 @@ class Estimator:
         else:
             if units != "m" and lo / 3 <= r * {"mm": 1000.0, "cm": 100.0}[units] <= hi * 3:
                 hint = "; it looks like metres already: leave units at 'm'"
-        raise InputError(f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
-                         f"{self.category} model was trained on{hint}")
+        raise InputError(
+            f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
+            f"{self.category} model was trained on{hint}"
+        )
 
     def _sample_pairs(self, labels: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """``(K, M, 2)`` pair indices, ``M = num_pairs // K``: with ``segment_pairs``, both points of part
@@ -288,18 +342,34 @@ class Estimator:
         """The result's parts and joints from the dict of :func:`vote_object` / :func:`regressed_object`
         and the parts' ``(K,)`` scores."""
         pri = self.priors
-        parts = [PartEstimate(index=k, label=pp.name, cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
-                              size_m=np.asarray(v["size_m"][k], np.float64), score=float(scores[k]),
-                              symmetry=pp.symmetry, num_votes=int(v["num_pairs"][k]), vote_score=float(v["score"][k]))
-                 for k, pp in enumerate(pri.parts)]
+        parts = [
+            PartEstimate(
+                index=k,
+                label=pp.name,
+                cam_from_part=np.asarray(v["cam_from_part"][k], np.float64),
+                size_m=np.asarray(v["size_m"][k], np.float64),
+                score=float(scores[k]),
+                symmetry=pp.symmetry,
+                num_votes=int(v["num_pairs"][k]),
+                vote_score=float(v["score"][k]),
+            )
+            for k, pp in enumerate(pri.parts)
+        ]
         joints = []
         for j, jp in enumerate(pri.joints):
             piv = np.asarray(v["joint_pivot"][j], np.float64)
             revolute = jp.type == JointType.REVOLUTE
-            joints.append(JointEstimate(type=jp.type.label, parent=jp.parent, child=jp.child,
-                                        pivot_m=piv if revolute and np.all(np.isfinite(piv)) else None,
-                                        axis=np.asarray(v["joint_axis"][j], np.float64), state=float(v["joint_state"][j]),
-                                        score=float(v["joint_score"][j])))
+            joints.append(
+                JointEstimate(
+                    type=jp.type.label,
+                    parent=jp.parent,
+                    child=jp.child,
+                    pivot_m=piv if revolute and np.all(np.isfinite(piv)) else None,
+                    axis=np.asarray(v["joint_axis"][j], np.float64),
+                    state=float(v["joint_state"][j]),
+                    score=float(v["joint_score"][j]),
+                )
+            )
         return parts, joints
 
     def predict_rgbd(self, depth, intrinsics, mask=None, box=None, depth_scale: float = 1000.0, mask_label=None) -> PoseResult:

@@ -82,7 +82,7 @@ class FrameResult:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "FrameResult":
+    def from_dict(cls, d: dict) -> FrameResult:
         if not isinstance(d, dict) or d.get("format") != RESULTS_FORMAT:
             raise DataError(
                 f"not a ucope frame result (format {d.get('format') if isinstance(d, dict) else None!r}, "
@@ -111,7 +111,7 @@ class FrameResult:
         return path
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "FrameResult":
+    def load(cls, path: str | os.PathLike) -> FrameResult:
         return cls.from_dict(read_json(path))
 
 

@@ -25,7 +25,16 @@ import torch
 from ..errors import InputError
 from ..geometry.normals import estimate_normals
 
-__all__ = ["MIN_POINTS", "NORMAL_K", "UNITS", "PreparedCloud", "prepare_points", "rgbd_points", "label_points", "canonical_subset"]
+__all__ = [
+    "MIN_POINTS",
+    "NORMAL_K",
+    "UNITS",
+    "PreparedCloud",
+    "prepare_points",
+    "rgbd_points",
+    "label_points",
+    "canonical_subset",
+]
 
 MIN_POINTS = 32
 """The fewest finite points :meth:`ucope.estimation.Estimator.predict` accepts."""
@@ -102,8 +111,9 @@ def canonical_subset(points: np.ndarray, m: int, seed: int = 0, normals: np.ndar
     return idx[np.lexsort(keys)]
 
 
-def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = NORMAL_K,
-                   estimate: bool = True, units: str = "m") -> PreparedCloud:
+def prepare_points(
+    points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = NORMAL_K, estimate: bool = True, units: str = "m"
+) -> PreparedCloud:
     """Validate and clean a cloud for the network (see the module docstring).
 
     Args:
@@ -148,8 +158,10 @@ def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, 
     n_ok = int(finite.sum())
     notes: list[str] = []
     if n_ok < MIN_POINTS:
-        raise InputError(f"only {n_ok} of {n_in} points are usable (NaN / Inf coordinates or zero normals dropped); "
-                         f"at least {MIN_POINTS} are needed")
+        raise InputError(
+            f"only {n_ok} of {n_in} points are usable (NaN / Inf coordinates or zero normals dropped); "
+            f"at least {MIN_POINTS} are needed"
+        )
     if n_ok < n_in and len(shape) == 1:  # an organised cloud marks missing pixels with NaN: nothing to warn about
         notes.append(f"dropped {n_in - n_ok} of {n_in} points with NaN / Inf coordinates or normals")
     kept = np.flatnonzero(finite)
@@ -157,15 +169,19 @@ def prepare_points(points, normals=None, max_points: int = 4096, seed: int = 0, 
     p = pts[sub]
     behind = float(np.mean(pts[kept, 2] <= 0.0))
     if behind > 0.5:
-        raise InputError(f"{100 * behind:.0f} % of the points lie behind the camera (z <= 0): the cloud must be in the camera "
-                         "frame (OpenCV axes: x right, y down, z forward from the camera), not in an object or world frame")
+        raise InputError(
+            f"{100 * behind:.0f} % of the points lie behind the camera (z <= 0): the cloud must be in the camera "
+            "frame (OpenCV axes: x right, y down, z forward from the camera), not in an object or world frame"
+        )
     if behind > 0:
         notes.append(f"{100 * behind:.1f} % of the points lie behind the camera (z <= 0)")
     ev = np.sqrt(np.clip(np.linalg.eigvalsh(np.cov(p.T)), 0.0, None))[::-1]  # spreads along the principal axes, largest first
     if ev[0] < 1e-6:
         raise InputError("all points coincide: the cloud has no extent")
     if ev[1] < 1e-3 * ev[0]:
-        raise InputError(f"the points lie on a line (spreads {ev[0]:.3g} / {ev[1]:.2g} / {ev[2]:.2g} m): not the surface of an object")
+        raise InputError(
+            f"the points lie on a line (spreads {ev[0]:.3g} / {ev[1]:.2g} / {ev[2]:.2g} m): not the surface of an object"
+        )
     if ev[2] < 1e-4 * ev[1]:
         notes.append(f"the points lie in one plane (spreads {ev[0]:.3g} / {ev[1]:.3g} / {ev[2]:.2g} m)")
     n = None
@@ -256,8 +272,10 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
     if not np.issubdtype(d.dtype, np.number) or d.dtype == np.bool_:
         raise InputError(f"depth must be numeric, got dtype {d.dtype}")
     if d.dtype in (np.uint8, np.int8):
-        raise InputError("the depth image has 8-bit values, which cannot hold depth in millimetres (is it a visualisation "
-                         "or a mask?); give the 16-bit depth (millimetres) or float depth in metres with depth_scale=1")
+        raise InputError(
+            "the depth image has 8-bit values, which cannot hold depth in millimetres (is it a visualisation "
+            "or a mask?); give the 16-bit depth (millimetres) or float depth in metres with depth_scale=1"
+        )
     if not (np.isfinite(depth_scale) and depth_scale > 0):
         raise InputError(f"depth_scale must be positive, got {depth_scale}")
     H, W = d.shape
@@ -265,7 +283,9 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
     if K.shape == (3, 3):
         K = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
     if K.shape != (4,) or not np.all(np.isfinite(K)) or K[0] <= 0 or K[1] <= 0:
-        raise InputError(f"intrinsics must be (fx, fy, cx, cy) or a 3x3 K with positive focal lengths, got {np.asarray(intrinsics).tolist()}")
+        raise InputError(
+            f"intrinsics must be (fx, fy, cx, cy) or a 3x3 K with positive focal lengths, got {np.asarray(intrinsics).tolist()}"
+        )
     valid = np.ones((H, W), bool)
     if mask is not None:
         m = np.asarray(mask)
@@ -288,8 +308,10 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
         raise InputError("no valid depth pixels inside the mask / box")
     z = float(np.median(pts[:, 2]))
     if not 0.05 <= z <= 20.0:
-        raise InputError(f"the object's median depth is {z:.4g} m after dividing by depth_scale={depth_scale:g}: check the scale "
-                         "(depth_scale=1000 for millimetre PNGs, 1 for float depth in metres)")
+        raise InputError(
+            f"the object's median depth is {z:.4g} m after dividing by depth_scale={depth_scale:g}: check the scale "
+            "(depth_scale=1000 for millimetre PNGs, 1 for float depth in metres)"
+        )
     med = np.median(pts, axis=0)
     r = np.linalg.norm(pts - med, axis=1)
     keep = r <= max(3.0 * float(np.median(r)), 0.05)

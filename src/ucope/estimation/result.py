@@ -74,19 +74,31 @@ class PartEstimate:
     vote_score: float | None = None
 
     def to_dict(self) -> dict:
-        d = {"index": int(self.index), "label": self.label, "symmetry": self.symmetry,
-             "cam_from_part": _floats(self.cam_from_part), "size_m": _floats(self.size_m),
-             "score": round(float(self.score), 5), "num_votes": int(self.num_votes)}
+        d = {
+            "index": int(self.index),
+            "label": self.label,
+            "symmetry": self.symmetry,
+            "cam_from_part": _floats(self.cam_from_part),
+            "size_m": _floats(self.size_m),
+            "score": round(float(self.score), 5),
+            "num_votes": int(self.num_votes),
+        }
         if self.vote_score is not None:
             d["vote_score"] = round(float(self.vote_score), 5)
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "PartEstimate":
-        return cls(index=int(d["index"]), label=str(d["label"]),
-                   cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4), size_m=np.asarray(d["size_m"], np.float64).reshape(3), score=float(d["score"]),
-                   symmetry=str(d.get("symmetry", "none")), num_votes=int(d.get("num_votes", 0)),
-                   vote_score=None if d.get("vote_score") is None else float(d["vote_score"]))
+    def from_dict(cls, d: dict) -> PartEstimate:
+        return cls(
+            index=int(d["index"]),
+            label=str(d["label"]),
+            cam_from_part=np.asarray(d["cam_from_part"], np.float64).reshape(4, 4),
+            size_m=np.asarray(d["size_m"], np.float64).reshape(3),
+            score=float(d["score"]),
+            symmetry=str(d.get("symmetry", "none")),
+            num_votes=int(d.get("num_votes", 0)),
+            vote_score=None if d.get("vote_score") is None else float(d["vote_score"]),
+        )
 
 
 @dataclass
@@ -108,15 +120,28 @@ class JointEstimate:
         return "rad" if self.type == "revolute" else "m"
 
     def to_dict(self) -> dict:
-        return {"type": self.type, "parent": int(self.parent), "child": int(self.child),
-                "pivot_m": None if self.pivot_m is None else _floats(self.pivot_m), "axis": _floats(self.axis),
-                "state": round(float(self.state), 7), "state_unit": self.state_unit, "score": round(float(self.score), 5)}
+        return {
+            "type": self.type,
+            "parent": int(self.parent),
+            "child": int(self.child),
+            "pivot_m": None if self.pivot_m is None else _floats(self.pivot_m),
+            "axis": _floats(self.axis),
+            "state": round(float(self.state), 7),
+            "state_unit": self.state_unit,
+            "score": round(float(self.score), 5),
+        }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "JointEstimate":
-        return cls(type=str(d["type"]), parent=int(d["parent"]), child=int(d["child"]),
-                   pivot_m=None if d.get("pivot_m") is None else np.asarray(d["pivot_m"], np.float64).reshape(3),
-                   axis=np.asarray(d["axis"], np.float64).reshape(3), state=float(d["state"]), score=float(d.get("score", 0.0)))
+    def from_dict(cls, d: dict) -> JointEstimate:
+        return cls(
+            type=str(d["type"]),
+            parent=int(d["parent"]),
+            child=int(d["child"]),
+            pivot_m=None if d.get("pivot_m") is None else np.asarray(d["pivot_m"], np.float64).reshape(3),
+            axis=np.asarray(d["axis"], np.float64).reshape(3),
+            state=float(d["state"]),
+            score=float(d.get("score", 0.0)),
+        )
 
 
 @dataclass
@@ -174,21 +199,26 @@ class PoseResult:
         return json.dumps(self.to_dict(), indent=indent)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "PoseResult":
+    def from_dict(cls, d: dict) -> PoseResult:
         if not isinstance(d, dict) or d.get("format") != RESULT_FORMAT:
             found = d.get("format") if isinstance(d, dict) else None
             raise DataError(f"not a ucope result (format {found!r}, expected {RESULT_FORMAT!r})")
         try:
-            return cls(category=str(d["category"]), parts=[PartEstimate.from_dict(p) for p in d["parts"]],
-                       joints=[JointEstimate.from_dict(j) for j in d["joints"]],
-                       part_labels=np.asarray(d["part_labels"], dtype=np.int64), timings_ms=dict(d.get("timings_ms", {})),
-                       model=str(d.get("model", "")), num_points=int(d.get("num_points", 0)),
-                       warnings=[str(w) for w in d.get("warnings", [])])
+            return cls(
+                category=str(d["category"]),
+                parts=[PartEstimate.from_dict(p) for p in d["parts"]],
+                joints=[JointEstimate.from_dict(j) for j in d["joints"]],
+                part_labels=np.asarray(d["part_labels"], dtype=np.int64),
+                timings_ms=dict(d.get("timings_ms", {})),
+                model=str(d.get("model", "")),
+                num_points=int(d.get("num_points", 0)),
+                warnings=[str(w) for w in d.get("warnings", [])],
+            )
         except (KeyError, TypeError, ValueError) as e:
             raise DataError(f"malformed ucope result: {e}") from None
 
     @classmethod
-    def from_json(cls, text: str) -> "PoseResult":
+    def from_json(cls, text: str) -> PoseResult:
         try:
             return cls.from_dict(json.loads(text))
         except json.JSONDecodeError as e:
@@ -202,11 +232,21 @@ class PoseResult:
         return path
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "PoseResult":
+    def load(cls, path: str | os.PathLike) -> PoseResult:
         return cls.from_dict(read_json(path))
 
-    def plot(self, points=None, depth=None, rgb=None, intrinsics=None, sample: dict | None = None, errors: dict | None = None,
-             depth_scale: float = 1000.0, title: str = "", out: str | os.PathLike | None = None) -> np.ndarray:
+    def plot(
+        self,
+        points=None,
+        depth=None,
+        rgb=None,
+        intrinsics=None,
+        sample: dict | None = None,
+        errors: dict | None = None,
+        depth_scale: float = 1000.0,
+        title: str = "",
+        out: str | os.PathLike | None = None,
+    ) -> np.ndarray:
         """A picture of this estimate, as ``ultralytics``' ``results.plot()``: an ``(H, W, 3)`` uint8 RGB array.
 
         The depth image (and the RGB image when given) with every part's box, axis triad (x red, y
@@ -247,7 +287,12 @@ class PoseResult:
             if depth_m is None:  # an RGB image alone: draw over it, with the cloud's depth beside it
                 if intrinsics is None:
                     raise InputError("an RGB image needs its camera's intrinsics to draw the estimate over it")
-        scene = Scene([DrawnObject(self, points, sample, errors)], title=title or (self.model or self.category),
-                      depth_m=depth_m, rgb=rgb, intrinsics=intrinsics)
+        scene = Scene(
+            [DrawnObject(self, points, sample, errors)],
+            title=title or (self.model or self.category),
+            depth_m=depth_m,
+            rgb=rgb,
+            intrinsics=intrinsics,
+        )
         img = render_scenes([scene], out=out)
         return img

@@ -94,7 +94,7 @@ def build_scene(server, scenes: Sequence[Scene], max_points: int = 20000) -> lis
             sc.add_label(f"{root}/title", scene.title, position=np.array([lo[0], lo[1], lo[2]]), anchor="bottom-left")
             names.append(f"{root}/title")
         diag = float(np.linalg.norm(hi - lo))
-        for j, (obj, cols) in enumerate(zip(scene.objects, part_colours(scene.objects))):
+        for j, (obj, cols) in enumerate(zip(scene.objects, part_colours(scene.objects), strict=False)):
             base = f"{root}/object_{j}"
             r = obj.result
             if obj.points is not None:

@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from ..versions import __version__
 from ..errors import InputError
+from ..versions import __version__
 from .mean_ap import compute_map
 from .metrics import (
     IOU_METHOD,
@@ -48,8 +48,18 @@ from .metrics import (
     summarize_parts,
 )
 
-__all__ = ["EVAL_FORMAT", "evaluate", "format_map_table", "format_report", "map_record_part_errors", "map_records_of",
-           "mug_handle_visible", "nocs_class", "rigid_figures", "sample_errors"]
+__all__ = [
+    "EVAL_FORMAT",
+    "evaluate",
+    "format_map_table",
+    "format_report",
+    "map_record_part_errors",
+    "map_records_of",
+    "mug_handle_visible",
+    "nocs_class",
+    "rigid_figures",
+    "sample_errors",
+]
 
 EVAL_FORMAT = "ucope-eval/1"
 
@@ -98,17 +108,31 @@ def sample_errors(result, sample: Mapping) -> dict:
     """
     K = len(sample["size_m"])
     if len(result.parts) != K or len(result.joints) != len(sample["joint_type"]):
-        raise InputError(f"the result has {len(result.parts)} parts / {len(result.joints)} joints, the sample "
-                         f"{K} / {len(sample['joint_type'])}: model and data set are of different categories")
+        raise InputError(
+            f"the result has {len(result.parts)} parts / {len(result.joints)} joints, the sample "
+            f"{K} / {len(sample['joint_type'])}: model and data set are of different categories"
+        )
     category = str(sample.get("category", ""))
     visible = mug_handle_visible(sample) if K == 1 and nocs_class(category) == "mug" else True
-    parts = [part_errors(p.cam_from_part, p.size_m, sample["cam_from_part"][k], sample["size_m"][k],
-                         part_symmetry(category, p.symmetry, visible) if K == 1 else p.symmetry)
-             for k, p in enumerate(result.parts)]
+    parts = [
+        part_errors(
+            p.cam_from_part,
+            p.size_m,
+            sample["cam_from_part"][k],
+            sample["size_m"][k],
+            part_symmetry(category, p.symmetry, visible) if K == 1 else p.symmetry,
+        )
+        for k, p in enumerate(result.parts)
+    ]
     # A joint whose ground-truth axis is unknown (NaN: BOP scenes have no joints) is not measured (None).
-    joints = [joint_errors(j.axis, j.pivot_m, j.state, sample["joint_axis"][i], sample["joint_pivot"][i],
-                           sample["joint_state"][i], j.type) if np.all(np.isfinite(sample["joint_axis"][i])) else None
-              for i, j in enumerate(result.joints)]
+    joints = [
+        joint_errors(
+            j.axis, j.pivot_m, j.state, sample["joint_axis"][i], sample["joint_pivot"][i], sample["joint_state"][i], j.type
+        )
+        if np.all(np.isfinite(sample["joint_axis"][i]))
+        else None
+        for i, j in enumerate(result.joints)
+    ]
     seg_iou = seg_acc = None
     if K > 1:
         labels = np.asarray(result.part_labels)
@@ -122,15 +146,29 @@ def map_records_of(results: Sequence, samples: Sequence[Mapping]) -> list[dict]:
     """:func:`ucope.eval.metrics.compute_map` records (one GT and one prediction per view) of a rigid
     category's predictions; the prediction's score is its part score."""
     out = []
-    for r, s in zip(results, samples):
+    for r, s in zip(results, samples, strict=False):
         cls = nocs_class(str(s["category"]))
-        gt = {"class": cls, "cam_from_object": np.asarray(s["cam_from_part"][0], np.float64).tolist(),
-              "size_m": np.asarray(s["size_m"][0], np.float64).tolist()}
+        gt = {
+            "class": cls,
+            "cam_from_object": np.asarray(s["cam_from_part"][0], np.float64).tolist(),
+            "size_m": np.asarray(s["size_m"][0], np.float64).tolist(),
+        }
         if cls == "mug":
             gt["handle_visible"] = mug_handle_visible(s)
         p = r.parts[0]
-        out.append({"gt": [gt], "pred": [{"class": cls, "cam_from_object": np.asarray(p.cam_from_part).tolist(),
-                                          "size_m": np.asarray(p.size_m).tolist(), "score": float(p.score)}]})
+        out.append(
+            {
+                "gt": [gt],
+                "pred": [
+                    {
+                        "class": cls,
+                        "cam_from_object": np.asarray(p.cam_from_part).tolist(),
+                        "size_m": np.asarray(p.size_m).tolist(),
+                        "score": float(p.score),
+                    }
+                ],
+            }
+        )
     return out
 
 
@@ -165,12 +203,16 @@ def rigid_figures(map_records: Sequence[Mapping], symmetry: str) -> dict:
         report's per-view errors are exactly these, so a report can be refreshed without predicting again).
     """
     parts = [[map_record_part_errors(r, symmetry)] for r in map_records]
-    return {"parts": summarize_parts(parts), "map": compute_map(map_records),
-            "map_nocs": compute_map(map_records, protocol="nocs")}
+    return {
+        "parts": summarize_parts(parts),
+        "map": compute_map(map_records),
+        "map_nocs": compute_map(map_records, protocol="nocs"),
+    }
 
 
-def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_info: Mapping | None = None,
-             keep_samples: bool = True) -> dict:
+def evaluate(
+    estimator, samples: Sequence[Mapping], progress: bool = True, data_info: Mapping | None = None, keep_samples: bool = True
+) -> dict:
     """Predict on every sample and measure every metric (see the module docstring for the report).
 
     Args:
@@ -220,8 +262,10 @@ def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_
     seg = None
     if cfg.num_parts > 1:
         ious = np.array([[np.nan if v is None else v for v in e["segmentation_iou"]] for e in records], np.float64)
-        seg = {"iou": [None if np.all(np.isnan(c)) else float(np.nanmean(c)) for c in ious.T],
-               "accuracy": float(np.mean([e["segmentation_accuracy"] for e in records]))}
+        seg = {
+            "iou": [None if np.all(np.isnan(c)) else float(np.nanmean(c)) for c in ious.T],
+            "accuracy": float(np.mean([e["segmentation_accuracy"] for e in records])),
+        }
     rigid = cfg.num_parts == 1
     map_records = map_records_of(results, kept) if rigid else None
     report: dict[str, Any] = {
@@ -231,15 +275,21 @@ def evaluate(estimator, samples: Sequence[Mapping], progress: bool = True, data_
         "category": cfg.category,
         "part_names": list(cfg.part_names),
         "part_symmetry": [p.symmetry for p in cfg.priors.parts],
-        "settings": {"num_pairs": estimator.num_pairs, "awareness": estimator.awareness,
-                     "refine": estimator.refine, "resolve_flips": getattr(estimator, "resolve_flips", False),
-                     "seed": estimator.seed},
+        "settings": {
+            "num_pairs": estimator.num_pairs,
+            "awareness": estimator.awareness,
+            "refine": estimator.refine,
+            "resolve_flips": getattr(estimator, "resolve_flips", False),
+            "seed": estimator.seed,
+        },
         "data": dict(data_info or {}, num_samples=n),
         "parts": summarize_parts([e["parts"] for e in records]),
         "joints": summarize_joints([e["joints"] for e in records]) if cfg.num_joints else None,
         "segmentation": seg,
-        "time_ms": {"mean": {k: float(np.mean(v)) for k, v in times.items()},
-                    "median": {k: float(np.median(v)) for k, v in times.items()}},
+        "time_ms": {
+            "mean": {k: float(np.mean(v)) for k, v in times.items()},
+            "median": {k: float(np.median(v)) for k, v in times.items()},
+        },
         "map": compute_map(map_records) if rigid else None,
         "map_nocs": compute_map(map_records, protocol="nocs") if rigid else None,
         "map_records": map_records,
@@ -263,10 +313,13 @@ def _cells(values: Sequence, fmt: str, scale: float = 1.0) -> str:
 
 def _stat_cells(stats: Mapping, fmt: str, scale: float = 1.0, unit: Sequence[str] | None = None) -> str:
     """``"mean cells (median cells)"`` of a ``{"mean": [...], "median": [...]}`` summary."""
+
     def cells(values):
         if unit is None:
             return _cells(values, fmt, scale)
-        return ", ".join("-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m") for v, u in zip(values, unit))
+        return ", ".join(
+            "-" if v is None else (f"{v:.1f} deg" if u == "deg" else f"{v:.3f} m") for v, u in zip(values, unit, strict=False)
+        )
 
     return f"{cells(stats['mean'])}  (median {cells(stats['median'])})"
 
@@ -323,8 +376,13 @@ def format_map_table(m: Mapping, indent: str = "") -> str:
     fraction = m.get("fraction") or {"mean": {}, "per_class": {}}  # (absent from reports older than the fractions)
 
     def row(label, ap, frac):
-        return indent + f"{label:8s} " + "  ".join(
-            f"{100 * ap[n]:5.1f} ({100 * frac[n]:5.1f})" if n in frac else f"{100 * ap[n]:5.1f}        " for n in names)
+        return (
+            indent
+            + f"{label:8s} "
+            + "  ".join(
+                f"{100 * ap[n]:5.1f} ({100 * frac[n]:5.1f})" if n in frac else f"{100 * ap[n]:5.1f}        " for n in names
+            )
+        )
 
     for cls in m["classes_with_gt"]:
         rows.append(row(cls, m["per_class"][cls], fraction["per_class"].get(cls, {})))
@@ -336,7 +394,9 @@ def format_map_table(m: Mapping, indent: str = "") -> str:
     elif protocol == "exact":
         note = "(IoU: exact oriented boxes; tied scores count as one operating point"
     else:
-        note = ("(IoU: the NOCS code's, not an IoU; pose metrics over the views matched at IoU > 0.1; "
-                "tied scores ranked last record first")
+        note = (
+            "(IoU: the NOCS code's, not an IoU; pose metrics over the views matched at IoU > 0.1; "
+            "tied scores ranked last record first"
+        )
     rows.append(indent + note + (f"; {tied} predictions share a score" if tied else "") + ")")
     return "\n".join(rows)

@@ -109,7 +109,7 @@ def _check_object(obj, where: str, is_pred: bool) -> dict:
         out["score"] = _scalar(obj["score"], f"{where}['score']")
     else:
         hv = obj.get("handle_visible", True)
-        if not isinstance(hv, (bool, np.bool_)):
+        if not isinstance(hv, bool | np.bool_):
             raise InputError(f"{where}['handle_visible'] must be a bool, got {hv!r}")
         out["handle_visible"] = bool(hv)
     return out
@@ -128,19 +128,21 @@ def check_records(records: Sequence[Mapping]) -> list[tuple[list[dict], list[dic
     Raises:
         InputError: on a malformed record; the message gives its index and key.
     """
-    if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Sequence):
+    if isinstance(records, str | bytes | Mapping) or not isinstance(records, Sequence):
         raise InputError(f"records must be a list of per-image dicts, got {type(records).__name__}")
     images = []
     for i, rec in enumerate(records):
         if not isinstance(rec, Mapping) or "gt" not in rec or "pred" not in rec:
             raise InputError(f"records[{i}] must be a dict with the keys 'gt' and 'pred'")
         for key in ("gt", "pred"):
-            if isinstance(rec[key], (str, bytes, Mapping)) or not isinstance(rec[key], Sequence):
+            if isinstance(rec[key], str | bytes | Mapping) or not isinstance(rec[key], Sequence):
                 raise InputError(f"records[{i}]['{key}'] must be a list of dicts")
-        images.append((
-            [_check_object(o, f"records[{i}]['gt'][{j}]", False) for j, o in enumerate(rec["gt"])],
-            [_check_object(o, f"records[{i}]['pred'][{j}]", True) for j, o in enumerate(rec["pred"])],
-        ))
+        images.append(
+            (
+                [_check_object(o, f"records[{i}]['gt'][{j}]", False) for j, o in enumerate(rec["gt"])],
+                [_check_object(o, f"records[{i}]['pred'][{j}]", True) for j, o in enumerate(rec["pred"])],
+            )
+        )
     return images
 
 
@@ -187,8 +189,9 @@ def nocs_reference_iou(cam_from_pred, size_pred, cam_from_gt, size_gt, symmetric
     best = 0.0
     for i in range(turns):
         a = 2.0 * np.pi * i / turns
-        turn = np.array([[np.cos(a), 0.0, np.sin(a), 0.0], [0.0, 1.0, 0.0, 0.0],
-                         [-np.sin(a), 0.0, np.cos(a), 0.0], [0.0, 0.0, 0.0, 1.0]])
+        turn = np.array(
+            [[np.cos(a), 0.0, np.sin(a), 0.0], [0.0, 1.0, 0.0, 0.0], [-np.sin(a), 0.0, np.cos(a), 0.0], [0.0, 0.0, 0.0, 1.0]]
+        )
         best = max(best, _nocs_asymmetric_iou(Tp @ turn, sp, Tg, sg))
     return float(best)
 
@@ -208,8 +211,13 @@ def _is_symmetric(cls: str, gt: Mapping, symmetric_classes) -> bool:
     return cls in symmetric_classes or (cls == "mug" and not gt["handle_visible"])
 
 
-def pair_errors(gts: Sequence[Mapping], preds: Sequence[Mapping], protocol: str = "exact",
-                symmetric_classes: Sequence[str] = NOCS_SYMMETRIC_CLASSES, num_angles: int = 36) -> dict:
+def pair_errors(
+    gts: Sequence[Mapping],
+    preds: Sequence[Mapping],
+    protocol: str = "exact",
+    symmetric_classes: Sequence[str] = NOCS_SYMMETRIC_CLASSES,
+    num_angles: int = 36,
+) -> dict:
     """IoU, rotation and translation error of every (prediction, ground truth) pair of one image and class.
 
     Args:
@@ -404,7 +412,7 @@ def _check_ap_inputs(tp, scores, num_gt) -> tuple[np.ndarray, np.ndarray]:
     scores = np.asarray(scores, dtype=np.float64) if np.size(scores) else np.zeros(0)
     if scores.shape != tp.shape or not np.all(np.isfinite(scores)):
         raise InputError(f"scores must be a finite array of shape {tp.shape}, got {scores.shape}")
-    if isinstance(num_gt, (bool, np.bool_)) or not isinstance(num_gt, (int, np.integer)) or num_gt < 1:
+    if isinstance(num_gt, bool | np.bool_) or not isinstance(num_gt, int | np.integer) or num_gt < 1:
         raise InputError(f"num_gt must be an integer >= 1 (AP is undefined without ground truth), got {num_gt!r}")
     if int(tp.sum()) > num_gt:
         raise InputError(f"{int(tp.sum())} true positives but only num_gt = {num_gt} ground-truth objects")
@@ -544,7 +552,7 @@ def _evaluate_class_exact(per_image: list[dict], iou_thr, pose_thr, names, gate)
     n_gt = sum(im["iou"].shape[1] for im in per_image)
     scores = np.concatenate([im["scores"] for im in per_image]) if per_image else np.zeros(0)
     figures = {}
-    for t, name in zip(iou_thr, names):
+    for t, name in zip(iou_thr, names, strict=False):
         tps, reach = [], 0
         for im in per_image:
             passes = im["iou"] >= t
@@ -561,7 +569,7 @@ def _evaluate_class_exact(per_image: list[dict], iou_thr, pose_thr, names, gate)
         kept.append((im["rot_deg"][p_keep][:, g_keep], im["trans_cm"][p_keep][:, g_keep], im["scores"][p_keep]))
     pose_gt = sum(k[0].shape[1] for k in kept)
     pose_scores = np.concatenate([k[2] for k in kept]) if kept else np.zeros(0)
-    for (deg, cm), name in zip(pose_thr, names[len(iou_thr):]):
+    for (deg, cm), name in zip(pose_thr, names[len(iou_thr) :], strict=False):
         tps, reach = [], 0
         for rot, trans, _ in kept:
             passes = (rot <= deg) & (trans <= cm)
@@ -576,7 +584,7 @@ def _evaluate_class_nocs(per_image: list[dict], iou_thr, pose_thr, names) -> dic
     n_gt = sum(im["iou"].shape[1] for im in per_image)
     scores = np.concatenate([im["scores"] for im in per_image]) if per_image else np.zeros(0)
     figures = {}
-    for t, name in zip(iou_thr, names):
+    for t, name in zip(iou_thr, names, strict=False):
         tps = [nocs_match_iou(im["iou"], t)[0] >= 0 for im in per_image]
         reach = sum(max_matching_size(im["iou"] > t) for im in per_image)
         figures[name] = _ap_figures(np.concatenate(tps) if tps else np.zeros(0), scores, n_gt, reach, "nocs")
@@ -587,7 +595,7 @@ def _evaluate_class_nocs(per_image: list[dict], iou_thr, pose_thr, names) -> dic
         kept.append((im["rot_deg"][p_keep][:, g_keep], im["trans_cm"][p_keep][:, g_keep], im["scores"][p_keep]))
     pose_gt = sum(k[0].shape[1] for k in kept)
     pose_scores = np.concatenate([k[2] for k in kept]) if kept else np.zeros(0)
-    for (deg, cm), name in zip(pose_thr, names[len(iou_thr):]):
+    for (deg, cm), name in zip(pose_thr, names[len(iou_thr) :], strict=False):
         tps = [nocs_match_pose(rot, trans, deg, cm)[0] >= 0 for rot, trans, _ in kept]
         reach = sum(max_matching_size((rot <= deg) & (trans <= cm)) for rot, trans, _ in kept)
         figures[name] = _ap_figures(np.concatenate(tps) if tps else np.zeros(0), pose_scores, pose_gt, reach, "nocs")
@@ -727,16 +735,23 @@ def compute_map(
         return {m: ([float(np.mean([table[c][m][k] for c in with_gt])) for k in (0, 1)] if with_gt else None) for m in names}
 
     if protocol == "exact":
-        matching = ("greedy per image and class in descending score order, equal scores in the order of the "
-                    "predictions' own numbers (pose, size); each takes the best unmatched passing GT (highest "
-                    "IoU, or smallest deg + cm; equal costs: by the GTs' own numbers); IoU >= t; "
-                    + ("no IoU gating of pose metrics" if gate is None else
-                       f"pose metrics only over the predictions and GT matched at IoU >= {gate:g}"))
+        matching = (
+            "greedy per image and class in descending score order, equal scores in the order of the "
+            "predictions' own numbers (pose, size); each takes the best unmatched passing GT (highest "
+            "IoU, or smallest deg + cm; equal costs: by the GTs' own numbers); IoU >= t; "
+            + (
+                "no IoU gating of pose metrics"
+                if gate is None
+                else f"pose metrics only over the predictions and GT matched at IoU >= {gate:g}"
+            )
+        )
         ranking = "descending score; tied scores form one precision-recall point (the lowest AP over their orders)"
     else:
-        matching = ("NOCS reference: per image in its rank order, each prediction takes the first unmatched GT by "
-                    "descending IoU with IoU > t (pose: by ascending deg + cm that passes); pose metrics only over "
-                    "the predictions and GT matched at IoU > 0.1")
+        matching = (
+            "NOCS reference: per image in its rank order, each prediction takes the first unmatched GT by "
+            "descending IoU with IoU > t (pose: by ascending deg + cm that passes); pose metrics only over "
+            "the predictions and GT matched at IoU > 0.1"
+        )
         ranking = "NOCS reference: ascending argsort read backwards (stable: tied scores in reverse record order)"
     return {
         "protocol": protocol,

@@ -120,7 +120,7 @@ def _unit(v, name: str) -> np.ndarray:
 
 
 def _scalar(x, name: str) -> float:
-    if isinstance(x, (bool, np.bool_)):
+    if isinstance(x, bool | np.bool_):
         raise InputError(f"{name} must be a finite number, got {x!r}")
     try:
         v = float(x)
@@ -139,7 +139,7 @@ def _symmetry(symmetry) -> str:
 
 def _joint_type(joint_type) -> str:
     """``"revolute"`` or ``"prismatic"`` from a name or an integer code (0 revolute, 1 prismatic)."""
-    if isinstance(joint_type, (int, np.integer)) and not isinstance(joint_type, (bool, np.bool_)):
+    if isinstance(joint_type, int | np.integer) and not isinstance(joint_type, bool | np.bool_):
         name = _JOINT_TYPE_NAMES.get(int(joint_type))
     else:
         name = joint_type if joint_type in _JOINT_TYPE_NAMES.values() else None
@@ -209,8 +209,7 @@ def normalized_translation_error(t_pred, t_gt, size_gt) -> float:
     return translation_error_m(t_pred, t_gt) / float(np.linalg.norm(size))
 
 
-def box_iou(cam_from_part_pred, size_pred, cam_from_part_gt, size_gt, symmetry: str = "none",
-            num_angles: int = 36) -> float:
+def box_iou(cam_from_part_pred, size_pred, cam_from_part_gt, size_gt, symmetry: str = "none", num_angles: int = 36) -> float:
     """Exact 3D IoU of the predicted and ground-truth amodal part boxes.
 
     Args:
@@ -388,7 +387,7 @@ def _labels(x, name: str, low: int, num_parts: int) -> np.ndarray:
 
 
 def _num_parts(num_parts) -> int:
-    if isinstance(num_parts, (bool, np.bool_)) or not isinstance(num_parts, (int, np.integer)) or num_parts < 1:
+    if isinstance(num_parts, bool | np.bool_) or not isinstance(num_parts, int | np.integer) or num_parts < 1:
         raise InputError(f"num_parts must be an integer >= 1, got {num_parts!r}")
     return int(num_parts)
 
@@ -462,11 +461,11 @@ def _stats(values: list) -> dict:
 
 def _check_table(samples, name: str) -> int:
     """Check a list (samples) of lists (parts / joints) of dicts or None; return the common length."""
-    if isinstance(samples, (str, bytes, Mapping)) or not isinstance(samples, Sequence) or len(samples) == 0:
+    if isinstance(samples, str | bytes | Mapping) or not isinstance(samples, Sequence) or len(samples) == 0:
         raise InputError(f"{name} must be a non-empty list (one entry per sample) of lists of dicts")
     lengths = set()
     for i, row in enumerate(samples):
-        if isinstance(row, (str, bytes, Mapping)) or not isinstance(row, Sequence):
+        if isinstance(row, str | bytes | Mapping) or not isinstance(row, Sequence):
             raise InputError(f"{name}[{i}] must be a list (one dict or None per part / joint)")
         lengths.add(len(row))
         for j, d in enumerate(row):
@@ -511,8 +510,7 @@ def summarize_parts(
     """
     k = _check_table(samples, "samples")
     keys = ("rotation_deg", "translation_m", "translation_norm", "iou")
-    cols = {key: [[_value(row[j], key, f"samples[{i}][{j}]") for i, row in enumerate(samples)] for j in range(k)]
-            for key in keys}
+    cols = {key: [[_value(row[j], key, f"samples[{i}][{j}]") for i, row in enumerate(samples)] for j in range(k)] for key in keys}
     n = len(samples)
     out = {
         "num_samples": n,
@@ -529,14 +527,17 @@ def summarize_parts(
         deg, m = _scalar(pair[0], "pose threshold (deg)"), _scalar(pair[1], "pose threshold (m)")
         name = _metric_name_pose(deg, 100.0 * m)
         fraction[name] = [
-            sum(1 for r, t in zip(cols["rotation_deg"][j], cols["translation_m"][j])
-                if r is not None and t is not None and r <= deg and t <= m) / n
+            sum(
+                1
+                for r, t in zip(cols["rotation_deg"][j], cols["translation_m"][j], strict=False)
+                if r is not None and t is not None and r <= deg and t <= m
+            )
+            / n
             for j in range(k)
         ]
     for t in iou_thresholds:
         t = _scalar(t, "iou threshold")
-        fraction[f"iou{round(t * 100):d}"] = [sum(1 for v in cols["iou"][j] if v is not None and v >= t) / n
-                                             for j in range(k)]
+        fraction[f"iou{round(t * 100):d}"] = [sum(1 for v in cols["iou"][j] if v is not None and v >= t) / n for j in range(k)]
     out["fraction"] = fraction
     return out
 
@@ -563,7 +564,6 @@ def summarize_joints(samples: Sequence[Sequence[Mapping | None]]) -> dict:
         out["joint_type"].append(kind)
         out["state_unit"].append({"revolute": "deg", "prismatic": "m"}.get(kind))
     for key in ("axis_deg", "pivot_m", "state_error"):
-        stats = [_stats([_value(row[j], key, f"samples[{i}][{j}]") for i, row in enumerate(samples)])
-                 for j in range(j_count)]
+        stats = [_stats([_value(row[j], key, f"samples[{i}][{j}]") for i, row in enumerate(samples)]) for j in range(j_count)]
         out[key] = {"mean": [s["mean"] for s in stats], "median": [s["median"] for s in stats]}
     return out

@@ -41,18 +41,27 @@ __all__ = [
 
 #: ``(8, 3)`` float array: the sign of each coordinate of corner ``i`` in the box frame
 #: (x sign from bit 2 of ``i``, y sign from bit 1, z sign from bit 0; ``-1`` where the bit is clear).
-BOX_CORNER_SIGNS: np.ndarray = np.array(
-    [[1.0 if (i >> b) & 1 else -1.0 for b in (2, 1, 0)] for i in range(8)], dtype=np.float64
-)
+BOX_CORNER_SIGNS: np.ndarray = np.array([[1.0 if (i >> b) & 1 else -1.0 for b in (2, 1, 0)] for i in range(8)], dtype=np.float64)
 BOX_CORNER_SIGNS.setflags(write=False)
 
 #: ``(12, 2)`` int array of corner index pairs (see :func:`box_corners` for the corner order), one row
 #: per box edge: rows 0-3 are the edges parallel to the box x axis, rows 4-7 parallel to y and
 #: rows 8-11 parallel to z.  The first index of each pair is the corner on the negative side.
 BOX_EDGES: np.ndarray = np.array(
-    [[0, 4], [1, 5], [2, 6], [3, 7],  # along x (bit 2 flips)
-     [0, 2], [1, 3], [4, 6], [5, 7],  # along y (bit 1 flips)
-     [0, 1], [2, 3], [4, 5], [6, 7]],  # along z (bit 0 flips)
+    [
+        [0, 4],
+        [1, 5],
+        [2, 6],
+        [3, 7],  # along x (bit 2 flips)
+        [0, 2],
+        [1, 3],
+        [4, 6],
+        [5, 7],  # along y (bit 1 flips)
+        [0, 1],
+        [2, 3],
+        [4, 5],
+        [6, 7],
+    ],  # along z (bit 0 flips)
     dtype=np.int64,
 )
 BOX_EDGES.setflags(write=False)
@@ -151,9 +160,7 @@ def box_corners(cam_from_box: np.ndarray, size_m: np.ndarray) -> np.ndarray:
     try:
         batch = np.broadcast_shapes(T.shape[:-2], size.shape[:-1])
     except ValueError as exc:
-        raise InputError(
-            f"batch shapes of cam_from_box {T.shape} and size_m {size.shape} do not broadcast"
-        ) from exc
+        raise InputError(f"batch shapes of cam_from_box {T.shape} and size_m {size.shape} do not broadcast") from exc
     local = BOX_CORNER_SIGNS * (0.5 * size[..., None, :])  # (..., 8, 3) in the box frame
     T = np.broadcast_to(T, batch + (4, 4))
     local = np.broadcast_to(local, batch + (8, 3))
@@ -478,9 +485,9 @@ def box_iou_3d_symmetric_y(
     sa = _check_size(size_a, "size_a", batch_shape=())
     Tb = _check_transform(cam_from_box_b, "cam_from_box_b", batch_shape=())
     sb = _check_size(size_b, "size_b", batch_shape=())
-    if isinstance(num_angles, bool) or not isinstance(num_angles, (int, np.integer)) or num_angles < 1:
+    if isinstance(num_angles, bool) or not isinstance(num_angles, int | np.integer) or num_angles < 1:
         raise InputError(f"num_angles must be an integer >= 1, got {num_angles!r}")
-    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.integer, np.floating)) or not 0.0 < tol < np.inf:
+    if isinstance(tol, bool) or not isinstance(tol, int | float | np.integer | np.floating) or not 0.0 < tol < np.inf:
         raise InputError(f"tol must be a positive number, got {tol!r}")
     best_iou, best_theta = _max_iou_about_y(Ta, sa, Tb, sb, int(num_angles), float(tol))
     best_theta = float(np.mod(best_theta, np.pi))
@@ -489,8 +496,9 @@ def box_iou_3d_symmetric_y(
     return (best_iou, best_theta) if return_angle else best_iou
 
 
-def _max_iou_about_y(Ta: np.ndarray, sa: np.ndarray, Tb: np.ndarray, sb: np.ndarray, num_angles: int,
-                     tol: float) -> tuple[float, float]:
+def _max_iou_about_y(
+    Ta: np.ndarray, sa: np.ndarray, Tb: np.ndarray, sb: np.ndarray, num_angles: int, tol: float
+) -> tuple[float, float]:
     """The search of :func:`box_iou_3d_symmetric_y` on validated boxes: ``(best IoU, its angle)``."""
     vol_a, vol_b = float(np.prod(sa)), float(np.prod(sb))
     # B turns about an axis through its centre: its circumscribed sphere does not move.
@@ -534,15 +542,24 @@ def _max_iou_about_y(Ta: np.ndarray, sa: np.ndarray, Tb: np.ndarray, sb: np.ndar
     x_prev[0] -= np.pi
     x_next, f_next = np.roll(x, -1), np.roll(f, -1)
     x_next[-1] += np.pi
-    may_beat = np.maximum(np.minimum(cap, 0.5 * (f_prev + f) + 0.5 * lipschitz * (x - x_prev)),
-                          np.minimum(cap, 0.5 * (f + f_next) + 0.5 * lipschitz * (x_next - x))) > best_iou
+    may_beat = (
+        np.maximum(
+            np.minimum(cap, 0.5 * (f_prev + f) + 0.5 * lipschitz * (x - x_prev)),
+            np.minimum(cap, 0.5 * (f + f_next) + 0.5 * lipschitz * (x_next - x)),
+        )
+        > best_iou
+    )
     peak = (f > f_prev + 1e-9) & (f > f_next + 1e-9)
     peak[k] = True  # the best sample, even on a plateau
     for i in np.nonzero(may_beat & peak & (f > 0.0))[0]:
         # Brent on the offset from the sample: its tolerance is partly relative to |x|, so a small
         # variable gives a tighter absolute angle tolerance.
-        res = minimize_scalar(lambda dt, x0=x[i]: -iou_at(x0 + dt), bounds=(x_prev[i] - x[i], x_next[i] - x[i]),
-                              method="bounded", options={"xatol": 1e-10})
+        res = minimize_scalar(
+            lambda dt, x0=x[i]: -iou_at(x0 + dt),
+            bounds=(x_prev[i] - x[i], x_next[i] - x[i]),
+            method="bounded",
+            options={"xatol": 1e-10},
+        )
         if res.success and -res.fun > best_iou:
             best_iou, best_theta = float(-res.fun), float(x[i] + res.x)
     return best_iou, best_theta

@@ -6,14 +6,14 @@ item is the same in any data-loader worker, on any machine and after a resume.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from ..errors import InputError
 from ..data.augment import augment_sample
+from ..errors import InputError
 from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
 from .config import ModelConfig
@@ -27,7 +27,9 @@ NORMAL_K = 16
 _FLOAT_FIELDS = ("cam_from_part", "size_m", "joint_pivot", "joint_axis", "joint_state")
 
 
-def sample_pairs(labels: np.ndarray, num_parts: int, pairs_per_part: int, rng: np.random.Generator, p_same: float = 0.5) -> np.ndarray:
+def sample_pairs(
+    labels: np.ndarray, num_parts: int, pairs_per_part: int, rng: np.random.Generator, p_same: float = 0.5
+) -> np.ndarray:
     """Point pairs for each part's voting heads.
 
     For part ``k`` the first point is drawn from the points labelled ``k`` (from all points if part
@@ -127,7 +129,7 @@ def collate_items(items: list[dict]) -> dict:
     if not items:
         raise InputError("cannot collate an empty list of items")
     batch = {k: torch.stack([it[k] for it in items]) for k in items[0] if k != "fps_idx"}
-    batch["fps_idx"] = [torch.stack([it["fps_idx"][l] for it in items]) for l in range(len(items[0]["fps_idx"]))]
+    batch["fps_idx"] = [torch.stack([it["fps_idx"][lev] for it in items]) for lev in range(len(items[0]["fps_idx"]))]
     return batch
 
 

@@ -31,9 +31,9 @@ from typing import Any
 import safetensors.torch
 import torch
 
-from ..versions import CHECKPOINT_FORMAT, CONVENTIONS_VERSION, MODEL_FORMAT, __version__
-from ..fileio import atomic_write_bytes, atomic_write_json, read_json
 from ..errors import DataError, InputError
+from ..fileio import atomic_write_bytes, atomic_write_json, read_json
+from ..versions import CHECKPOINT_FORMAT, CONVENTIONS_VERSION, MODEL_FORMAT, __version__
 from .config import ModelConfig
 
 __all__ = [
@@ -118,14 +118,17 @@ def save_model(
     tensors.update(_priors_tensors(model.cfg))
     tensors = {k: (v.to(_DTYPES[dtype]) if v.is_floating_point() else v) for k, v in tensors.items()}
     weights = _write_weights(json_path.with_suffix(".safetensors"), tensors)
-    atomic_write_json(json_path, {
-        "format": MODEL_FORMAT,
-        "ucope_version": __version__,
-        "conventions_version": CONVENTIONS_VERSION,
-        "config": model.cfg.to_dict(),
-        "weights": {**weights, "dtype": dtype},
-        "info": info or {},
-    })
+    atomic_write_json(
+        json_path,
+        {
+            "format": MODEL_FORMAT,
+            "ucope_version": __version__,
+            "conventions_version": CONVENTIONS_VERSION,
+            "config": model.cfg.to_dict(),
+            "weights": {**weights, "dtype": dtype},
+            "info": info or {},
+        },
+    )
     return json_path
 
 
@@ -136,7 +139,7 @@ def _priors_tensors(cfg: ModelConfig) -> dict[str, torch.Tensor]:
 
 def _split_priors(tensors: dict[str, torch.Tensor]) -> tuple[dict[str, torch.Tensor], dict]:
     """``(network tensors, priors arrays)`` of a weights file."""
-    pri = {k[len("priors."):]: v.float().numpy() for k, v in tensors.items() if k.startswith("priors.")}
+    pri = {k[len("priors.") :]: v.float().numpy() for k, v in tensors.items() if k.startswith("priors.")}
     return {k: v for k, v in tensors.items() if not k.startswith("priors.")}, pri
 
 
@@ -188,8 +191,10 @@ def find_model(model: str | os.PathLike) -> Path:
     if shipped.is_file():
         return shipped
     names = list_pretrained()
-    raise DataError(f"no model {str(model)!r}: not a file or folder, and not a shipped model"
-                    + (f" (shipped: {', '.join(names)})" if names else " (this install ships no models)"))
+    raise DataError(
+        f"no model {str(model)!r}: not a file or folder, and not a shipped model"
+        + (f" (shipped: {', '.join(names)})" if names else " (this install ships no models)")
+    )
 
 
 def resolve_model_path(path: str | os.PathLike) -> Path:
@@ -199,7 +204,11 @@ def resolve_model_path(path: str | os.PathLike) -> Path:
     if p.is_dir():
         j = p / "model.json"
         if not j.is_file():
-            hint = " (training is still running or was stopped: its checkpoint.json can be resumed)" if (p / "checkpoint.json").is_file() else ""
+            hint = (
+                " (training is still running or was stopped: its checkpoint.json can be resumed)"
+                if (p / "checkpoint.json").is_file()
+                else ""
+            )
             raise DataError(f"{p} holds no model.json{hint}")
         return j
     j = _json_path(p)
@@ -220,8 +229,10 @@ def read_model_json(path: str | os.PathLike) -> dict:
         raise DataError(f"{j} is not a model this ucope ({__version__}) reads: format {fmt!r}, expected {MODEL_FORMAT!r}")
     conv = str(meta.get("conventions_version"))
     if conv != CONVENTIONS_VERSION:
-        raise DataError(f"{j} was made under conventions version {conv}, this ucope uses version {CONVENTIONS_VERSION} "
-                        "(frames or units differ: retrain or re-package the model)")
+        raise DataError(
+            f"{j} was made under conventions version {conv}, this ucope uses version {CONVENTIONS_VERSION} "
+            "(frames or units differ: retrain or re-package the model)"
+        )
     return meta
 
 
@@ -278,14 +289,17 @@ def save_checkpoint(run: str | os.PathLike, model: torch.nn.Module, optimizer: t
     step = int(state["step"])
     weights = _write_weights(run / f"checkpoint-{step:08d}.safetensors", tensors)
     old = read_json(run / "checkpoint.json").get("weights", {}).get("file") if (run / "checkpoint.json").is_file() else None
-    atomic_write_json(run / "checkpoint.json", {
-        "format": CHECKPOINT_FORMAT,
-        "ucope_version": __version__,
-        "config": model.cfg.to_dict(),
-        "weights": weights,
-        "optimizer": {"param_groups": opt["param_groups"], "scalars": opt_scalars},
-        "state": state,
-    })
+    atomic_write_json(
+        run / "checkpoint.json",
+        {
+            "format": CHECKPOINT_FORMAT,
+            "ucope_version": __version__,
+            "config": model.cfg.to_dict(),
+            "weights": weights,
+            "optimizer": {"param_groups": opt["param_groups"], "scalars": opt_scalars},
+            "state": state,
+        },
+    )
     if old and old != weights["file"]:
         try:
             (run / old).unlink()
@@ -294,7 +308,9 @@ def save_checkpoint(run: str | os.PathLike, model: torch.nn.Module, optimizer: t
     return run / "checkpoint.json"
 
 
-def load_checkpoint(run: str | os.PathLike, model: torch.nn.Module | None = None, optimizer: torch.optim.Optimizer | None = None) -> dict:
+def load_checkpoint(
+    run: str | os.PathLike, model: torch.nn.Module | None = None, optimizer: torch.optim.Optimizer | None = None
+) -> dict:
     """Read a run's checkpoint; restore ``model`` and ``optimizer`` in place if given.
 
     Returns:
@@ -306,7 +322,9 @@ def load_checkpoint(run: str | os.PathLike, model: torch.nn.Module | None = None
     meta = read_json(j)
     fmt = meta.get("format") if isinstance(meta, dict) else None
     if fmt != CHECKPOINT_FORMAT:
-        raise DataError(f"{j} is not a training checkpoint this ucope ({__version__}) resumes: format {fmt!r}, expected {CHECKPOINT_FORMAT!r}")
+        raise DataError(
+            f"{j} is not a training checkpoint this ucope ({__version__}) resumes: format {fmt!r}, expected {CHECKPOINT_FORMAT!r}"
+        )
     tensors, pri = _split_priors(_read_weights(j, meta.get("weights", {})))
     meta["model_config"] = _config(meta, j, pri)
     if model is not None:

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 from ..errors import InputError
 from ..priors import CategoryPriors
@@ -152,7 +153,7 @@ def _jsonable(v: Any) -> Any:
     """``v`` with tuples as lists, recursively (what a JSON round trip gives back); non-finite floats refused."""
     if isinstance(v, dict):
         return {k: _jsonable(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
+    if isinstance(v, list | tuple):
         return [_jsonable(x) for x in v]
     if isinstance(v, float) and not math.isfinite(v):
         raise InputError("model config values must be finite")

@@ -34,12 +34,11 @@ from ..errors import InputError
 from ..vocab import JointType
 from .config import ModelConfig
 from .pointnet2 import PointNet2Encoder
-from .targets import joint_point_targets, pair_features, pair_vote_targets, two_hot, bin_centres
+from .targets import bin_centres, joint_point_targets, pair_features, pair_vote_targets, two_hot
 
 __all__ = ["UCOPENet", "PerGroupLinear", "per_group_linear"]
 
 REVOLUTE = int(JointType.REVOLUTE)
-
 
 
 class PerGroupLinear(nn.Module):
@@ -60,8 +59,8 @@ def per_group_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) 
     """:class:`PerGroupLinear` with the given ``weight`` ``(G, I, O)`` and ``bias`` ``(G, O)`` (e.g. a
     subset of its output columns): ``(B, G, *, I)`` -> ``(B, G, *, O)``."""
     B, G = x.shape[:2]
-    I = x.shape[-1]
-    flat = x.reshape(B, G, -1, I).transpose(0, 1).reshape(G, -1, I)  # (G, B n, I); a view when B = 1
+    c_in = x.shape[-1]
+    flat = x.reshape(B, G, -1, c_in).transpose(0, 1).reshape(G, -1, c_in)  # (G, B n, I); a view when B = 1
     y = torch.baddbmm(bias.unsqueeze(1), flat, weight)  # (G, B n, O)
     return y.reshape(G, B, -1, y.shape[-1]).transpose(0, 1).reshape(*x.shape[:-1], -1)
 
@@ -88,7 +87,11 @@ class UCOPENet(nn.Module):
         self.encoder = PointNet2Encoder(cfg.encoder)
         C = self.encoder.out_channels
         self.num_classes = K + 1 if cfg.background_class else K  # segmentation classes (the last is "background")
-        self.mask_head = nn.Sequential(nn.Linear(C, H), nn.ReLU(inplace=True), nn.Linear(H, self.num_classes)) if self.num_classes > 1 else None
+        self.mask_head = (
+            nn.Sequential(nn.Linear(C, H), nn.ReLU(inplace=True), nn.Linear(H, self.num_classes))
+            if self.num_classes > 1
+            else None
+        )
         self._build_pose_heads(C, K, H)
         if J > 0:
             self.joint_mlp = _mlp(C, H, 2)
@@ -114,7 +117,9 @@ class UCOPENet(nn.Module):
         }
         self.pair_point = nn.Linear(C, 2 * H, bias=False)  # [W_a F_i ; W_b F_j], applied per point
         self.pair_geo = nn.Linear(4 + K, H)  # PPF + part one-hot, with the first layer's bias
-        self.pair_mlp = nn.Sequential(nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True))
+        self.pair_mlp = nn.Sequential(
+            nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True), nn.Linear(H, H), nn.ReLU(inplace=True)
+        )
         self.pair_out = PerGroupLinear(K, H, sum(self.out_sizes.values()))
 
     # ------------------------------------------------------------------------------------------ forward
@@ -143,8 +148,15 @@ class UCOPENet(nn.Module):
             out["masks"] = f1.new_ones(*f1.shape[:2], 1)
         return out
 
-    def pair_heads(self, enc: dict, points: torch.Tensor, normals: torch.Tensor, pair_idx: torch.Tensor,
-                   heads=None, return_hidden: bool = False) -> dict[str, torch.Tensor]:
+    def pair_heads(
+        self,
+        enc: dict,
+        points: torch.Tensor,
+        normals: torch.Tensor,
+        pair_idx: torch.Tensor,
+        heads=None,
+        return_hidden: bool = False,
+    ) -> dict[str, torch.Tensor]:
         """Per-pair voting outputs for every part.
 
         Args:
@@ -242,7 +254,9 @@ class UCOPENet(nn.Module):
             "joint_score": y[..., 7],
         }
 
-    def forward(self, points: torch.Tensor, normals: torch.Tensor, pair_idx: torch.Tensor | None = None, fps_idx=None) -> dict[str, torch.Tensor]:
+    def forward(
+        self, points: torch.Tensor, normals: torch.Tensor, pair_idx: torch.Tensor | None = None, fps_idx=None
+    ) -> dict[str, torch.Tensor]:
         """All outputs: those of :meth:`encode`, :meth:`joint_heads` (K >= 2) and, given ``pair_idx``,
         :meth:`pair_heads`."""
         enc = self.encode(points, normals, fps_idx)
@@ -301,7 +315,9 @@ class UCOPENet(nn.Module):
         p = pts[bidx, flat].reshape(B, K, M, 2, 3)
         lab = labels[bidx, flat].reshape(B, K, M, 2)
         n_a = nrm[bidx, flat].reshape(B, K, M, 2, 3)[..., 0, :]
-        t = pair_vote_targets(p[..., 0, :], p[..., 1, :], n_a, batch["cam_from_part"], batch["size_m"], self.mean_size.unsqueeze(0))
+        t = pair_vote_targets(
+            p[..., 0, :], p[..., 1, :], n_a, batch["cam_from_part"], batch["size_m"], self.mean_size.unsqueeze(0)
+        )
         kk = torch.arange(K, device=pts.device).view(1, K, 1)
         same = (lab[..., 0] == kk) & (lab[..., 1] == kk)
         valid = (same & (t["dist"] > 1e-4)).to(pts.dtype)  # (B, K, M)
@@ -332,8 +348,13 @@ class UCOPENet(nn.Module):
             w = valid
             den = float(w.sum().clamp_min(1.0))
             logs.update(
-                mu=float(l_mu.mean()), nu=float(l_nu.mean()), alpha=float(l_alpha.mean()), beta=float(l_beta.mean()),
-                sign=float(l_sign.mean()), gamma=float(l_gamma.mean()), part_score=float(l_score.mean()),
+                mu=float(l_mu.mean()),
+                nu=float(l_nu.mean()),
+                alpha=float(l_alpha.mean()),
+                beta=float(l_beta.mean()),
+                sign=float(l_sign.mean()),
+                gamma=float(l_gamma.mean()),
+                part_score=float(l_score.mean()),
                 mu_err_m=float(((mu_hat - t["mu"]).abs() * w).sum() / den),
                 alpha_err_deg=float(((a_hat - t["alpha"]).abs() * w).sum() / den * 180.0 / math.pi),
                 part_score_acc=float(((out["part_score"] > 0) == same).float().mean()),
@@ -346,7 +367,9 @@ class UCOPENet(nn.Module):
         pts, labels = batch["points"], batch["part_labels"]
         pivot, axis, jtype = batch["joint_pivot"], batch["joint_axis"], batch["joint_type"]
         s = self.norm_scale
-        t = joint_point_targets(pts, labels, pivot, axis, jtype, self.joint_parent_idx, self.joint_child_idx, self.cfg.heat_radius * s)
+        t = joint_point_targets(
+            pts, labels, pivot, axis, jtype, self.joint_parent_idx, self.joint_child_idx, self.cfg.heat_radius * s
+        )
         if self.cfg.background_class:  # background points are nobody's hinge
             t["heat"] = t["heat"] * (labels < self.cfg.num_parts).to(pts.dtype).unsqueeze(1)
         heat_l, score_l = out["joint_heat"], out["joint_score"]
@@ -371,8 +394,11 @@ class UCOPENet(nn.Module):
             cosang = (u_hat * axis).sum(-1).clamp(-1, 1)
             rev = (jtype == REVOLUTE).to(pts.dtype)
             logs.update(
-                joint_heat=float(l_heat.mean()), joint_score=float(l_score.mean()), joint_offset=float(l_off.mean()),
-                joint_pivot=float(l_pvt.mean()), joint_dir=float(l_dir.mean()),
+                joint_heat=float(l_heat.mean()),
+                joint_score=float(l_score.mean()),
+                joint_offset=float(l_off.mean()),
+                joint_pivot=float(l_pvt.mean()),
+                joint_dir=float(l_dir.mean()),
                 axis_err_deg=float(torch.rad2deg(torch.arccos(cosang)).mean()),
                 pivot_err_m=float((l_pvt * s).sum() / rev.sum().clamp_min(1.0)),
             )

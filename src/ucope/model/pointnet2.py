@@ -336,7 +336,7 @@ class SharedMLP(nn.Module):
         if len(channels) == 0:
             raise InputError("an MLP needs at least one layer")
         dims = [int(in_channels), *map(int, channels)]
-        self.layers = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:]))
+        self.layers = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:], strict=False))
         self.last_relu = last_relu
         for i, layer in enumerate(self.layers):
             _init_linear(layer, relu=last_relu or i < len(self.layers) - 1)
@@ -371,9 +371,7 @@ class SetAbstraction(nn.Module):
         mlp: output channels of each MLP layer, every layer ``Linear -> ReLU``.
     """
 
-    def __init__(
-        self, npoint: int | None, radius: float | None, nsample: int | None, in_channels: int, mlp: Sequence[int]
-    ):
+    def __init__(self, npoint: int | None, radius: float | None, nsample: int | None, in_channels: int, mlp: Sequence[int]):
         super().__init__()
         if npoint is not None and (radius is None or radius <= 0 or nsample is None or nsample < 1):
             raise InputError("a set abstraction with npoint needs radius > 0 and nsample >= 1")
@@ -570,7 +568,7 @@ class PointNet2Config:
             raise InputError("npoints, radii, nsamples and sa_mlps must have the same (non-zero) length")
         if len(self.fp_mlps) != L + 1:
             raise InputError(f"fp_mlps needs len(npoints) + 1 = {L + 1} entries, got {len(self.fp_mlps)}")
-        if any(m < 1 for m in self.npoints) or any(a < b for a, b in zip(self.npoints, self.npoints[1:])):
+        if any(m < 1 for m in self.npoints) or any(a < b for a, b in zip(self.npoints, self.npoints[1:], strict=False)):
             raise InputError(f"npoints must be positive and non-increasing, got {self.npoints}")
         if self.in_channels < 0 or self.width <= 0:
             raise InputError("in_channels must be >= 0 and width > 0")
@@ -609,7 +607,7 @@ class PointNet2Encoder(nn.Module):
         self.sa = nn.ModuleList()
         c_in = cfg.in_channels
         level_channels = [cfg.in_channels]
-        for m, r, k, mlp in zip(cfg.npoints, cfg.radii, cfg.nsamples, cfg.sa_mlps):
+        for m, r, k, mlp in zip(cfg.npoints, cfg.radii, cfg.nsamples, cfg.sa_mlps, strict=False):
             sa = SetAbstraction(m, r, k, c_in, cfg.channels(mlp))
             self.sa.append(sa)
             c_in = sa.out_channels

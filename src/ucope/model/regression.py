@@ -88,14 +88,22 @@ class RegressionNet(UCOPENet):
         full = (R - R_gt).abs().sum((-1, -2))
         y_only = (R[..., 1] - R_gt[..., 1]).abs().sum(-1)
         l_rot = torch.where(sym, y_only, full).mean(0)  # (K,)
-        l_t = F.smooth_l1_loss(out["centre_m"] / self.norm_scale, t_gt / self.norm_scale, reduction="none", beta=0.05).sum(-1).mean(0)
+        l_t = (
+            F.smooth_l1_loss(out["centre_m"] / self.norm_scale, t_gt / self.norm_scale, reduction="none", beta=0.05)
+            .sum(-1)
+            .mean(0)
+        )
         g_gt = torch.log(batch["size_m"]) - torch.log(self.mean_size.unsqueeze(0))
         l_g = (out["gamma"] - g_gt).pow(2).mean(-1).mean(0)
         with torch.no_grad():
             cos_y = (R[..., 1] * R_gt[..., 1]).sum(-1).clamp(-1, 1)
             tr = ((R * R_gt).sum((-1, -2)) - 1.0).mul(0.5).clamp(-1, 1)
             ang = torch.where(sym, torch.arccos(cos_y), torch.arccos(tr))
-            logs.update(rot=float(l_rot.mean()), trans=float(l_t.mean()), gamma=float(l_g.mean()),
-                        rot_err_deg=float(torch.rad2deg(ang).mean()),
-                        trans_err_m=float((out["centre_m"] - t_gt).norm(dim=-1).mean()))
+            logs.update(
+                rot=float(l_rot.mean()),
+                trans=float(l_t.mean()),
+                gamma=float(l_g.mean()),
+                rot_err_deg=float(torch.rad2deg(ang).mean()),
+                trans_err_m=float((out["centre_m"] - t_gt).norm(dim=-1).mean()),
+            )
         return (l_rot + l_t + l_g).sum()

@@ -44,7 +44,9 @@ def canonical_pair_normals(e: torch.Tensor, n_a: torch.Tensor, n_b: torch.Tensor
     return n_a * s_a, n_b * s_b
 
 
-def pair_features(a: torch.Tensor, b: torch.Tensor, n_a: torch.Tensor, n_b: torch.Tensor, scale: torch.Tensor | float) -> torch.Tensor:
+def pair_features(
+    a: torch.Tensor, b: torch.Tensor, n_a: torch.Tensor, n_b: torch.Tensor, scale: torch.Tensor | float
+) -> torch.Tensor:
     """Sign-invariant point pair features ``[|a-b| / scale, n_a.e, n_b.e, n_a.n_b]`` (Drost et al.).
 
     Args:

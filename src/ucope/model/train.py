@@ -21,7 +21,8 @@ Determinism: the model's initial weights come from ``seed``; epoch ``e``'s sampl
 and item ``i``'s points and pairs are drawn from ``(seed, e, i)``. A run resumed from a checkpoint at
 step ``s`` therefore sees exactly the batches an uninterrupted run sees after step ``s``, and on the CPU
 reaches bit-identical parameters; the checkpoint also holds the open window of the metrics log, so the
-resumed run writes the same ``metrics.jsonl`` losses (wall times aside) wherever it was stopped. The learning rate is a function of the step: ``lr * lr_gamma **
+resumed run writes the same ``metrics.jsonl`` losses (wall times aside) wherever it was stopped.
+The learning rate is a function of the step: ``lr * lr_gamma **
 floor(epoch / lr_step_epochs)`` (the paper: 1e-3, x0.1 every 10 epochs; it names no optimiser, we use Adam).
 """
 
@@ -35,22 +36,22 @@ import os
 import platform
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-import numpy as np
 import torch
 import torch.distributed as dist
 from torch.utils.data import DataLoader, DistributedSampler
 
-from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
-from ..fileio import atomic_write_json
+from ..data.augment import AugmentConfig
 from ..errors import DataError, InputError, UcopeError
+from ..fileio import atomic_write_json
+from ..priors import measure_priors
+from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 from .batch import TrainingItems, batch_to, collate_items
 from .checkpoint import find_model, load_checkpoint, load_model, read_model_json, save_checkpoint, save_model
-from ..data.augment import AugmentConfig
-from ..priors import measure_priors
 from .config import ModelConfig
 from .factory import build_model
 from .network import UCOPENet
@@ -227,8 +228,17 @@ def _load_samples(tc: TrainConfig):
         from ..data.stream import GeneratedSamples
 
         s = GeneratedSamples(tc.category, "train", tc.data_seed, tc.epoch_size)
-        return s, {"kind": "on-the-fly", "split": "train", "seed": tc.data_seed, "epoch_size": tc.epoch_size,
-                   "generator_version": GENERATOR_VERSION}, s.meta["structure"]
+        return (
+            s,
+            {
+                "kind": "on-the-fly",
+                "split": "train",
+                "seed": tc.data_seed,
+                "epoch_size": tc.epoch_size,
+                "generator_version": GENERATOR_VERSION,
+            },
+            s.meta["structure"],
+        )
     from ..data.dataset import load_dataset
 
     ds = load_dataset(tc.data, cache_bytes=_CACHE_BYTES)
@@ -237,8 +247,19 @@ def _load_samples(tc: TrainConfig):
     meta = ds.meta
     if "structure" not in meta:
         raise DataError(f"{tc.data}/meta.json declares no category structure (made by an older ucope): generate the data again")
-    return ds, {"kind": "shards", "path": str(Path(tc.data).resolve()), "split": meta.get("split"), "seed": meta.get("seed"),
-                "num": len(ds), "generator_version": meta.get("generator_version"), "settings": meta.get("settings")}, meta["structure"]
+    return (
+        ds,
+        {
+            "kind": "shards",
+            "path": str(Path(tc.data).resolve()),
+            "split": meta.get("split"),
+            "seed": meta.get("seed"),
+            "num": len(ds),
+            "generator_version": meta.get("generator_version"),
+            "settings": meta.get("settings"),
+        },
+        meta["structure"],
+    )
 
 
 def _load_val(tc: TrainConfig):
@@ -249,11 +270,21 @@ def _load_val(tc: TrainConfig):
         if ds.category != tc.category:
             raise InputError(f"validation set {tc.val_data} holds {ds.category!r} samples, not {tc.category!r}")
         n = min(len(ds), tc.val_samples)
-        return [ds[i] for i in range(n)], {"kind": "shards", "path": str(Path(tc.val_data).resolve()), "split": ds.meta.get("split"), "num": n}
+        return [ds[i] for i in range(n)], {
+            "kind": "shards",
+            "path": str(Path(tc.val_data).resolve()),
+            "split": ds.meta.get("split"),
+            "num": n,
+        }
     from ..data.generate import GenerateConfig, make_sample
 
     cfg = GenerateConfig(category=tc.category, split="val", num=tc.val_samples, seed=tc.data_seed, views_per_instance=1)
-    return [make_sample(cfg, i) for i in range(tc.val_samples)], {"kind": "generated", "split": "val", "seed": tc.data_seed, "num": tc.val_samples}
+    return [make_sample(cfg, i) for i in range(tc.val_samples)], {
+        "kind": "generated",
+        "split": "val",
+        "seed": tc.data_seed,
+        "num": tc.val_samples,
+    }
 
 
 def _progress_bar(total: int, initial: int, enabled: bool):
@@ -353,8 +384,10 @@ def _init_config(tc: TrainConfig) -> tuple[ModelConfig, torch.nn.Module]:
         raise InputError(f"--init {tc.init_from}: a {cfg.category!r} model cannot start a {tc.category!r} run")
     fixed = sorted(k for k in tc.model_overrides if k not in _FINE_TUNE_FIELDS and tc.model_overrides[k] != getattr(cfg, k, None))
     if fixed:
-        raise InputError(f"--init {tc.init_from}: the network is the initial model's; {', '.join(fixed)} cannot change "
-                         f"(only {', '.join(_FINE_TUNE_FIELDS)} can)")
+        raise InputError(
+            f"--init {tc.init_from}: the network is the initial model's; {', '.join(fixed)} cannot change "
+            f"(only {', '.join(_FINE_TUNE_FIELDS)} can)"
+        )
     changes = {k: v for k, v in tc.model_overrides.items() if k in _FINE_TUNE_FIELDS}
     if tc.augment > 0:
         changes.setdefault("background_class", True)
@@ -379,8 +412,23 @@ def load_matching_weights(model: torch.nn.Module, state: dict[str, torch.Tensor]
     return partial
 
 
-RESUME_MAY_CHANGE = ("out", "data", "val_data", "steps", "epochs", "workers", "log_every", "val_every", "checkpoint_every",
-                     "max_minutes", "threads", "device", "resume", "allow_changed_settings", "progress")
+RESUME_MAY_CHANGE = (
+    "out",
+    "data",
+    "val_data",
+    "steps",
+    "epochs",
+    "workers",
+    "log_every",
+    "val_every",
+    "checkpoint_every",
+    "max_minutes",
+    "threads",
+    "device",
+    "resume",
+    "allow_changed_settings",
+    "progress",
+)
 """Training settings a ``--resume`` may change (where the run is, how long it runs, how it reports, on
 what hardware); any other change makes a different model and is refused unless ``allow_changed_settings``.
 The data folders may move, but the data sets' content must be the same."""
@@ -395,8 +443,10 @@ def _check_resume_settings(tc: TrainConfig, ckpt: dict, data_desc: dict) -> None
         changed.append("training data content")
     if changed and not tc.allow_changed_settings:
         detail = ", ".join(f"{k}: {old.get(k)!r} -> {new.get(k)!r}" if k in new else k for k in changed)
-        raise TrainingError(f"--resume with other settings than the checkpoint's ({detail}) would train a different model; "
-                            "resume with the same settings, or pass --allow-changed-settings to go on anyway")
+        raise TrainingError(
+            f"--resume with other settings than the checkpoint's ({detail}) would train a different model; "
+            "resume with the same settings, or pass --allow-changed-settings to go on anyway"
+        )
 
 
 class _Run:
@@ -433,7 +483,9 @@ class _Run:
         self.net = self.model
         if dd.enabled:
             self.net = torch.nn.parallel.DistributedDataParallel(self.model, device_ids=[self.device.index] if use_cuda else None)
-        self.items = TrainingItems(self.samples, self.cfg, seed=tc.seed, augment=AugmentConfig(probability=tc.augment) if tc.augment > 0 else None)
+        self.items = TrainingItems(
+            self.samples, self.cfg, seed=tc.seed, augment=AugmentConfig(probability=tc.augment) if tc.augment > 0 else None
+        )
         self.per_step = tc.batch_size * dd.world
         self.steps_per_epoch = len(self.items) // self.per_step
         if self.steps_per_epoch == 0:
@@ -457,11 +509,24 @@ class _Run:
         if tc.init_from is not None:
             cfg, init = _init_config(tc)
             if tc.new_priors:
-                cfg = dataclasses.replace(cfg, priors=measure_priors(self.samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
-                                                                     template_samples=100 if tc.on_the_fly else 400))
+                cfg = dataclasses.replace(
+                    cfg,
+                    priors=measure_priors(
+                        self.samples,
+                        tc.category,
+                        structure,
+                        max_samples=300 if tc.on_the_fly else 2000,
+                        template_samples=100 if tc.on_the_fly else 400,
+                    ),
+                )
             return cfg, init
-        priors = measure_priors(self.samples, tc.category, structure, max_samples=300 if tc.on_the_fly else 2000,
-                                template_samples=100 if tc.on_the_fly else 400)
+        priors = measure_priors(
+            self.samples,
+            tc.category,
+            structure,
+            max_samples=300 if tc.on_the_fly else 2000,
+            template_samples=100 if tc.on_the_fly else 400,
+        )
         overrides = dict(tc.model_overrides)
         if tc.augment > 0:
             overrides.setdefault("background_class", True)
@@ -489,10 +554,19 @@ class _Run:
         return self.elapsed_before + time.perf_counter() - self.t_start
 
     def state(self) -> dict:
-        return {"step": self.step, "epoch": self.step // self.steps_per_epoch, "total_steps": self.total,
-                "steps_per_epoch": self.steps_per_epoch, "world_size": self.dd.world, "train_time_s": self.elapsed(),
-                "last_val": self.last_val, "train_config": self.tc.to_dict(), "data": self.data_desc,
-                "window": self.window, "window_n": self.window_n}
+        return {
+            "step": self.step,
+            "epoch": self.step // self.steps_per_epoch,
+            "total_steps": self.total,
+            "steps_per_epoch": self.steps_per_epoch,
+            "world_size": self.dd.world,
+            "train_time_s": self.elapsed(),
+            "last_val": self.last_val,
+            "train_config": self.tc.to_dict(),
+            "data": self.data_desc,
+            "window": self.window,
+            "window_n": self.window_n,
+        }
 
     def checkpoint(self, sync: bool = True) -> None:
         if self.dd.main:
@@ -503,8 +577,13 @@ class _Run:
     def log_train(self, lr: float, bar) -> None:
         """One metrics line: the mean of every train log since the previous line."""
         dt = time.perf_counter() - self.window_t0
-        row = {"step": self.step, "epoch": round(self.step / self.steps_per_epoch, 4), "lr": lr, "time_s": round(self.elapsed(), 2),
-               "samples_per_s": round(self.window_n * self.per_step / max(dt, 1e-9), 2)}
+        row = {
+            "step": self.step,
+            "epoch": round(self.step / self.steps_per_epoch, 4),
+            "lr": lr,
+            "time_s": round(self.elapsed(), 2),
+            "samples_per_s": round(self.window_n * self.per_step / max(dt, 1e-9), 2),
+        }
         row.update({f"train/{k}": v / self.window_n for k, v in self.window.items()})
         self.log.write(row)
         if bar is not None:
@@ -514,8 +593,13 @@ class _Run:
     def run_validation(self) -> None:
         if self.dd.main:
             self.last_val = validate(self.model, self.val_samples, self.tc.batch_size, self.tc.seed + 1, self.device)
-            self.log.write({"step": self.step, "epoch": round(self.step / self.steps_per_epoch, 4),
-                            **{f"val/{k}": v for k, v in self.last_val.items()}})
+            self.log.write(
+                {
+                    "step": self.step,
+                    "epoch": round(self.step / self.steps_per_epoch, 4),
+                    **{f"val/{k}": v for k, v in self.last_val.items()},
+                }
+            )
 
     # ------------------------------------------------------------------------------------- loop
     def epoch_loader(self) -> DataLoader:
@@ -523,13 +607,21 @@ class _Run:
         machine (``DistributedSampler(shuffle=True, seed)`` at epoch ``e``), started at this step."""
         tc, epoch = self.tc, self.step // self.steps_per_epoch
         start = self.step % self.steps_per_epoch
-        sampler = DistributedSampler(self.items, num_replicas=self.dd.world, rank=self.dd.rank, shuffle=True, seed=tc.seed, drop_last=True)
+        sampler = DistributedSampler(
+            self.items, num_replicas=self.dd.world, rank=self.dd.rank, shuffle=True, seed=tc.seed, drop_last=True
+        )
         sampler.set_epoch(epoch)
         order = list(sampler)[start * tc.batch_size : self.steps_per_epoch * tc.batch_size]
         order = order[: (self.total - self.step) * tc.batch_size]
         self.items.set_epoch(epoch)
-        return DataLoader(self.items, batch_size=tc.batch_size, sampler=order, num_workers=tc.workers,
-                          collate_fn=collate_items, pin_memory=self.use_cuda)
+        return DataLoader(
+            self.items,
+            batch_size=tc.batch_size,
+            sampler=order,
+            num_workers=tc.workers,
+            collate_fn=collate_items,
+            pin_memory=self.use_cuda,
+        )
 
     def train_step(self, batch: dict) -> float:
         """One optimiser step on ``batch``; returns the learning rate used."""
@@ -540,8 +632,10 @@ class _Run:
         outputs = self.net(batch["points"], batch["normals"], batch["pair_idx"], batch["fps_idx"])
         loss, logs = self.model.loss_from_outputs(outputs, batch)
         if self.dd.any(not bool(torch.isfinite(loss))):  # every rank stops together
-            raise TrainingError(f"the loss became non-finite at step {self.step + 1} (here: {float(loss)}); lower --lr "
-                                f"(now {lr:g}) and --resume from the last checkpoint")
+            raise TrainingError(
+                f"the loss became non-finite at step {self.step + 1} (here: {float(loss)}); lower --lr "
+                f"(now {lr:g}) and --resume from the last checkpoint"
+            )
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.optimizer.step()
@@ -608,16 +702,24 @@ class _Run:
             "train_time_s": round(self.elapsed(), 1),
             "stopped_early": self.stopped_early,
             "final_validation": self.last_val,
-            "hardware": {"device": str(self.device) if not self.use_cuda else torch.cuda.get_device_name(self.device),
-                         "cpu_count": os.cpu_count(), "torch_threads": torch.get_num_threads(),
-                         "platform": platform.platform(), "torch": torch.__version__},
+            "hardware": {
+                "device": str(self.device) if not self.use_cuda else torch.cuda.get_device_name(self.device),
+                "cpu_count": os.cpu_count(),
+                "torch_threads": torch.get_num_threads(),
+                "platform": platform.platform(),
+                "torch": torch.__version__,
+            },
             "parameter_digests": digests,
             "train_config": tc.to_dict(),
         }
         if tc.init_from is not None:  # a fine-tuned model: what it started from, and that model's own training
             init_info = read_model_json(find_model(tc.init_from)).get("info", {})
-            card["initialised_from"] = {"model": str(tc.init_from), "category": init_info.get("category"),
-                                        "steps": init_info.get("steps"), "train_time_s": init_info.get("train_time_s")}
+            card["initialised_from"] = {
+                "model": str(tc.init_from),
+                "category": init_info.get("category"),
+                "steps": init_info.get("steps"),
+                "train_time_s": init_info.get("train_time_s"),
+            }
             if init_info.get("initialised_from"):  # a chain of fine-tunings: keep every stage
                 card["initialised_from"]["initialised_from"] = init_info["initialised_from"]
             card["model_size"] = init_info.get("model_size", tc.model_size)

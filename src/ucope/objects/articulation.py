@@ -23,14 +23,13 @@ This can hold any URDF tree of fixed, revolute and prismatic links.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 import trimesh
 
 from ..errors import InputError
-from ..vocab import JOINT_TYPES, SYMMETRIES, JointType
 from ..geometry.transforms import (
     apply_transform,
     axis_angle_transform,
@@ -38,6 +37,7 @@ from ..geometry.transforms import (
     make_transform,
     translation_transform,
 )
+from ..vocab import JOINT_TYPES, SYMMETRIES, JointType
 
 __all__ = ["Part", "Joint", "ArticulatedObject", "make_part", "build_object"]
 
@@ -260,7 +260,7 @@ class ArticulatedObject:
     def posed_meshes(self, state: Sequence[float] | np.ndarray | None = None) -> list[trimesh.Trimesh]:
         """Every part mesh moved into the object frame at ``state`` (new mesh objects)."""
         poses = self.object_from_part(state)
-        return [p.mesh.copy().apply_transform(T) for p, T in zip(self.parts, poses)]
+        return [p.mesh.copy().apply_transform(T) for p, T in zip(self.parts, poses, strict=False)]
 
     def posed_geometry(self, state: Sequence[float] | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """All parts in the object frame as one triangle soup.
@@ -270,7 +270,7 @@ class ArticulatedObject:
         """
         poses = self.object_from_part(state)
         verts, faces, labels, offset = [], [], [], 0
-        for k, (p, T) in enumerate(zip(self.parts, poses)):
+        for k, (p, T) in enumerate(zip(self.parts, poses, strict=False)):
             verts.append(apply_transform(T, p.mesh.vertices))
             faces.append(np.asarray(p.mesh.faces, dtype=np.int64) + offset)
             labels.append(np.full(len(p.mesh.faces), k, dtype=np.int64))
@@ -283,14 +283,24 @@ class ArticulatedObject:
         :func:`ucope.priors.structure_from_dict` reads. Fixed joints cannot be declared (merge such parts)."""
         for j in self.joints:
             if JointType.parse(j.type) == JointType.FIXED:
-                raise InputError(f"{self.instance_id}: joint {j.parent}->{j.child} is fixed; a category's joints are revolute or prismatic")
+                raise InputError(
+                    f"{self.instance_id}: joint {j.parent}->{j.child} is fixed; a category's joints are revolute or prismatic"
+                )
         return {
             "parts": [{"name": p.name, "symmetry": p.symmetry} for p in self.parts],
-            "joints": [{"type": j.type, "parent": int(j.parent), "child": int(j.child), "axis_in_parent": [float(x) for x in j.axis],
-                        "limits": [float(j.limits[0]), float(j.limits[1])]} for j in self.joints],
+            "joints": [
+                {
+                    "type": j.type,
+                    "parent": int(j.parent),
+                    "child": int(j.child),
+                    "axis_in_parent": [float(x) for x in j.axis],
+                    "limits": [float(j.limits[0]), float(j.limits[1])],
+                }
+                for j in self.joints
+            ],
         }
 
-    def scaled(self, factor: float) -> "ArticulatedObject":
+    def scaled(self, factor: float) -> ArticulatedObject:
         """The same object scaled uniformly by ``factor`` about the object frame's origin.
 
         Every length scales: part meshes (so box sizes), the parts' placements, joint pivots, and the
@@ -303,8 +313,11 @@ class ArticulatedObject:
         if not np.isfinite(f) or f <= 0:
             raise InputError(f"scale factor must be a positive finite number, got {factor!r}")
         parts = tuple(
-            Part(name=p.name, symmetry=p.symmetry,
-                 mesh=trimesh.Trimesh(vertices=np.asarray(p.mesh.vertices) * f, faces=np.asarray(p.mesh.faces), process=False))
+            Part(
+                name=p.name,
+                symmetry=p.symmetry,
+                mesh=trimesh.Trimesh(vertices=np.asarray(p.mesh.vertices) * f, faces=np.asarray(p.mesh.faces), process=False),
+            )
             for p in self.parts
         )
         joints = []
@@ -313,8 +326,18 @@ class ArticulatedObject:
             T[:3, 3] *= f
             prismatic = JointType.parse(j.type) == JointType.PRISMATIC
             k = f if prismatic else 1.0
-            joints.append(Joint(type=j.type, parent=j.parent, child=j.child, pivot=j.pivot * f, axis=j.axis,
-                                limits=(j.limits[0] * k, j.limits[1] * k), rest=j.rest * k, parent_from_child_zero=T))
+            joints.append(
+                Joint(
+                    type=j.type,
+                    parent=j.parent,
+                    child=j.child,
+                    pivot=j.pivot * f,
+                    axis=j.axis,
+                    limits=(j.limits[0] * k, j.limits[1] * k),
+                    rest=j.rest * k,
+                    parent_from_child_zero=T,
+                )
+            )
         return dataclasses.replace(self, parts=parts, joints=tuple(joints), scale=self.scale * f)
 
     def bounds(self, state: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
@@ -342,9 +365,7 @@ def make_part(
     v_rot = mesh_in_object.vertices @ R  # coordinates along the part axes (origin at object origin)
     centre_rot = 0.5 * (v_rot.min(0) + v_rot.max(0))
     object_from_part = make_transform(R, R @ centre_rot)
-    mesh = trimesh.Trimesh(
-        vertices=v_rot - centre_rot, faces=np.asarray(mesh_in_object.faces), process=False
-    )
+    mesh = trimesh.Trimesh(vertices=v_rot - centre_rot, faces=np.asarray(mesh_in_object.faces), process=False)
     return Part(name=name, mesh=mesh, symmetry=symmetry), object_from_part
 
 
@@ -376,12 +397,21 @@ def build_object(
         axis = parent_inv[:3, :3] @ (root_inv[:3, :3] @ np.asarray(spec["axis"], float))
         built.append(
             Joint(
-                type=spec["type"], parent=p, child=c, pivot=pivot, axis=axis,
-                limits=tuple(spec["limits"]), rest=float(spec.get("rest", spec["limits"][0])),
+                type=spec["type"],
+                parent=p,
+                child=c,
+                pivot=pivot,
+                axis=axis,
+                limits=tuple(spec["limits"]),
+                rest=float(spec.get("rest", spec["limits"][0])),
                 parent_from_child_zero=parent_inv @ poses[c],
             )
         )
     return ArticulatedObject(
-        category=category, instance_id=instance_id, parts=tuple(p for p, _ in parts), joints=tuple(built),
-        params=dict(params or {}), shape_family=shape_family,
+        category=category,
+        instance_id=instance_id,
+        parts=tuple(p for p, _ in parts),
+        joints=tuple(built),
+        params=dict(params or {}),
+        shape_family=shape_family,
     )

@@ -18,7 +18,7 @@ Conventions (all functions):
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import trimesh
@@ -70,7 +70,9 @@ def combine(meshes: Sequence[trimesh.Trimesh]) -> trimesh.Trimesh:
     return _mesh(np.concatenate(verts), np.concatenate(faces))
 
 
-def transformed(mesh: trimesh.Trimesh, rotation: np.ndarray | None = None, translation: Sequence[float] = (0, 0, 0)) -> trimesh.Trimesh:
+def transformed(
+    mesh: trimesh.Trimesh, rotation: np.ndarray | None = None, translation: Sequence[float] = (0, 0, 0)
+) -> trimesh.Trimesh:
     """A copy of ``mesh`` with vertices ``R @ v + t``.
 
     Args:
@@ -83,7 +85,9 @@ def transformed(mesh: trimesh.Trimesh, rotation: np.ndarray | None = None, trans
     return trimesh.Trimesh(vertices=v + np.asarray(translation, float), faces=np.asarray(mesh.faces), process=False)
 
 
-def box(extents: Sequence[float], center: Sequence[float] = (0.0, 0.0, 0.0), rotation: np.ndarray | None = None) -> trimesh.Trimesh:
+def box(
+    extents: Sequence[float], center: Sequence[float] = (0.0, 0.0, 0.0), rotation: np.ndarray | None = None
+) -> trimesh.Trimesh:
     """One closed box of ``extents`` ``(3,)`` (x, y, z) metres, centred at ``center`` ``(3,)``, optionally
     rotated by ``rotation`` ``(3, 3)`` about its centre. For many axis-aligned boxes use :func:`boxes`."""
     m = trimesh.creation.box(extents=np.asarray(extents, float))
@@ -92,17 +96,23 @@ def box(extents: Sequence[float], center: Sequence[float] = (0.0, 0.0, 0.0), rot
 
 
 # unit box corners and its 12 outward triangles (same layout for every box)
-_BOX_CORNERS = np.array(
-    [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float
-) * 0.5
+_BOX_CORNERS = (
+    np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float) * 0.5
+)
 _BOX_FACES = np.array(
     [
-        [0, 2, 1], [0, 3, 2],  # -z
-        [4, 5, 6], [4, 6, 7],  # +z
-        [0, 1, 5], [0, 5, 4],  # -y
-        [3, 7, 6], [3, 6, 2],  # +y
-        [0, 4, 7], [0, 7, 3],  # -x
-        [1, 2, 6], [1, 6, 5],  # +x
+        [0, 2, 1],
+        [0, 3, 2],  # -z
+        [4, 5, 6],
+        [4, 6, 7],  # +z
+        [0, 1, 5],
+        [0, 5, 4],  # -y
+        [3, 7, 6],
+        [3, 6, 2],  # +y
+        [0, 4, 7],
+        [0, 7, 3],  # -x
+        [1, 2, 6],
+        [1, 6, 5],  # +x
     ],
     np.int64,
 )
@@ -160,7 +170,9 @@ def open_box(
     return boxes(np.array(centres), np.array(sizes))
 
 
-def cylinder(radius: float, height: float, center: Sequence[float] = (0, 0, 0), axis: Sequence[float] = (0, 1, 0), sections: int = 24) -> trimesh.Trimesh:
+def cylinder(
+    radius: float, height: float, center: Sequence[float] = (0, 0, 0), axis: Sequence[float] = (0, 1, 0), sections: int = 24
+) -> trimesh.Trimesh:
     """A closed cylinder along any direction ``axis`` ``(3,)`` (default y), centred at ``center`` ``(3,)``.
     Along an axis of the frame, :func:`disc` is cheaper."""
     m = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)  # along z
@@ -331,8 +343,10 @@ def sweep_planar(
     rn = np.broadcast_to(np.asarray(r_normal, float), (n,))
     rb = np.broadcast_to(np.asarray(r_inplane, float), (n,))
     phi = np.linspace(0, 2 * np.pi, sections, endpoint=False)
-    ring = (rn[:, None, None] * np.cos(phi)[None, :, None] * nrm[None, None, :]
-            + rb[:, None, None] * np.sin(phi)[None, :, None] * bin_[:, None, :])
+    ring = (
+        rn[:, None, None] * np.cos(phi)[None, :, None] * nrm[None, None, :]
+        + rb[:, None, None] * np.sin(phi)[None, :, None] * bin_[:, None, :]
+    )
     v = (path[:, None, :] + ring).reshape(-1, 3)
     i = np.arange(n if closed else n - 1)[:, None]
     j = np.arange(sections)[None, :]
@@ -362,7 +376,9 @@ def arc(center: Sequence[float], radius: float | Sequence[float], a0: float, a1:
     return np.stack([center[0] + rad[0] * np.cos(t), center[1] + rad[1] * np.sin(t)], -1)
 
 
-def rounded_rect(width: float, height: float, radius: float, n_corner: int = 5, center: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
+def rounded_rect(
+    width: float, height: float, radius: float, n_corner: int = 5, center: Sequence[float] = (0.0, 0.0)
+) -> np.ndarray:
     """Counter-clockwise convex ``(4 n_corner, 2)`` outline of a ``width x height`` rectangle with corner
     ``radius`` (clipped to fit), centred at ``center``, ``n_corner`` points per corner; it starts at the
     top of the right edge (the (+, +) corner comes first)."""

@@ -45,7 +45,7 @@ class PinholeCamera:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "PinholeCamera":
+    def from_dict(cls, d: dict) -> PinholeCamera:
         try:
             return cls(**{k: d[k] for k in ("fx", "fy", "cx", "cy", "width", "height")})
         except (KeyError, TypeError) as e:

@@ -78,9 +78,7 @@ def raycast_depth(
     dirs = camera.pixel_rays(rows, cols)
     dirs_unit = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
     mesh = trimesh.Trimesh(vertices=v, faces=faces, process=False)
-    locs, ray_idx, tri_idx = _intersector(mesh).intersects_location(
-        np.zeros_like(dirs_unit), dirs_unit, multiple_hits=False
-    )
+    locs, ray_idx, tri_idx = _intersector(mesh).intersects_location(np.zeros_like(dirs_unit), dirs_unit, multiple_hits=False)
     if len(ray_idx) == 0:
         return depth, labels
     z = locs[:, 2]

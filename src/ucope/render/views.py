@@ -60,7 +60,7 @@ class ViewConfig:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ViewConfig":
+    def from_dict(cls, d: dict) -> ViewConfig:
         d = dict(d)
         d["camera"] = PinholeCamera.from_dict(d["camera"])
         d["noise"] = DepthNoise(**d["noise"])

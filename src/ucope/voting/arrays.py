@@ -40,7 +40,7 @@ def as_tensor(x, name: str, dtype: torch.dtype | None = torch.float32, device=No
 
 def check_shape(t: torch.Tensor, name: str, shape: tuple) -> torch.Tensor:
     """Check ``t.shape`` against ``shape`` (``None`` entries match any size)."""
-    if t.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, t.shape)):
+    if t.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, t.shape, strict=False)):
         want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
         raise InputError(f"{name} must have shape {want}, got {tuple(t.shape)}")
     return t

@@ -41,8 +41,19 @@ from ..errors import InputError
 from .arrays import cross3, dot3, median, np64, strided, tensor
 from .centre import circle_basis, perpendicular_basis
 
-__all__ = ["AxisOptions", "fibonacci_sphere", "vote_axis", "axis_from_cones", "coarse_axes", "choose_axis_sign", "signed_axis",
-           "axis_residual", "cube_cell", "cube_cell_centre", "AXIS_METHODS"]
+__all__ = [
+    "AxisOptions",
+    "fibonacci_sphere",
+    "vote_axis",
+    "axis_from_cones",
+    "coarse_axes",
+    "choose_axis_sign",
+    "signed_axis",
+    "axis_residual",
+    "cube_cell",
+    "cube_cell_centre",
+    "AXIS_METHODS",
+]
 
 _CHUNK = 1 << 20  # elements of one (D, S) score chunk
 
@@ -82,7 +93,16 @@ class AxisOptions:
             raise InputError(f"method must be one of {AXIS_METHODS}, got {self.method!r}")
         if not (self.tol_deg > 0 and self.min_tol_deg > 0):
             raise InputError("tol_deg and min_tol_deg must be positive")
-        if min(int(self.num_angles), int(self.grid), int(self.num_directions), int(self.max_coarse_pairs), int(self.max_refine_pairs)) < 1:
+        if (
+            min(
+                int(self.num_angles),
+                int(self.grid),
+                int(self.num_directions),
+                int(self.max_coarse_pairs),
+                int(self.max_refine_pairs),
+            )
+            < 1
+        ):
             raise InputError("num_angles, grid, num_directions, max_coarse_pairs and max_refine_pairs must be positive")
 
 
@@ -159,7 +179,8 @@ def cube_cell_centre(idx: int, G: int, device=None, dtype=torch.float32) -> torc
 
 
 def coarse_axes(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, num_angles: int, grid: int) -> torch.Tensor:
-    """The coarse cube-map vote of one or several axes (inputs unchecked). Peak of the cones' candidates binned on a cube map. ``e`` ``(3, S)``, ``angle`` ``(S,)`` (or
+    """The coarse cube-map vote of one or several axes (inputs unchecked). Peak of the cones' candidates binned on a cube map.
+    ``e`` ``(3, S)``, ``angle`` ``(S,)`` (or
     ``(n, S)``: ``n`` axes voted by the same pairs at once, e.g. up and right), ``w`` ``(S,)``.
     Returns ``(3,)`` (or ``(n, 3)``).
 
@@ -200,8 +221,9 @@ def _sphere_axis(e: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, dirs: to
     return dirs[int(score.argmax())]
 
 
-def _refine_axis(u: np.ndarray, e: np.ndarray, angle: np.ndarray, w: np.ndarray, tol0: float, tol_min: float, iters: int,
-                 tol_start: float) -> np.ndarray:
+def _refine_axis(
+    u: np.ndarray, e: np.ndarray, angle: np.ndarray, w: np.ndarray, tol0: float, tol_min: float, iters: int, tol_start: float
+) -> np.ndarray:
     """Iteratively reweighted Gauss-Newton on the sphere (module docstring, step 2), on float64 numpy
     ``u`` ``(3,)``, ``e`` ``(3, M)``, ``angle, w`` ``(M,)`` (small arrays: numpy's per-call cost is a
     fraction of torch's)."""
@@ -269,8 +291,14 @@ def vote_axis(e, angle, weights=None, *, options: AxisOptions | None = None) -> 
     return axis_from_cones(et, angle, w, opt)
 
 
-def axis_from_cones(et: torch.Tensor, angle: torch.Tensor, w: torch.Tensor, options: AxisOptions, coarse: torch.Tensor | None = None,
-                    with_inliers: bool = True) -> tuple[torch.Tensor, torch.Tensor | None]:
+def axis_from_cones(
+    et: torch.Tensor,
+    angle: torch.Tensor,
+    w: torch.Tensor,
+    options: AxisOptions,
+    coarse: torch.Tensor | None = None,
+    with_inliers: bool = True,
+) -> tuple[torch.Tensor, torch.Tensor | None]:
     """The work of :func:`vote_axis` on inputs it has checked: coordinate-major unit directions ``et``
     ``(3, M)``, ``angle, w`` ``(M,)``. ``coarse``: the coarse direction ``(3,)`` if already voted
     (:func:`coarse_axes` of several axes at once); ``with_inliers=False`` returns ``None`` for them."""
@@ -331,12 +359,25 @@ def choose_axis_sign(
     angle = tensor(angle, "angle", (M,), device=dev)
     n = tensor(normals, "normals", (M, 3), device=dev)
     lg = tensor(sign_logits, "sign_logits", (M,), device=dev)
-    inl = torch.ones(M, dtype=torch.bool, device=dev) if inliers is None else tensor(inliers, "inliers", (M,), dtype=torch.bool, device=dev)
+    inl = (
+        torch.ones(M, dtype=torch.bool, device=dev)
+        if inliers is None
+        else tensor(inliers, "inliers", (M,), dtype=torch.bool, device=dev)
+    )
     return signed_axis(u, e.T.contiguous(), angle, n.T.contiguous(), lg, inl, float(tol_deg), float(margin), use_sign_bits)
 
 
-def signed_axis(u: torch.Tensor, et: torch.Tensor, angle: torch.Tensor, nt: torch.Tensor, lg: torch.Tensor, inl: torch.Tensor, tol_deg: float,
-                margin: float, use_sign_bits: bool) -> tuple[torch.Tensor, int]:
+def signed_axis(
+    u: torch.Tensor,
+    et: torch.Tensor,
+    angle: torch.Tensor,
+    nt: torch.Tensor,
+    lg: torch.Tensor,
+    inl: torch.Tensor,
+    tol_deg: float,
+    margin: float,
+    use_sign_bits: bool,
+) -> tuple[torch.Tensor, int]:
     """The work of :func:`choose_axis_sign` on inputs it has checked: coordinate-major ``et, nt`` ``(3, M)``."""
     nt = torch.where(dot3(nt, et) < 0, -nt, nt)
     x = (u @ et).clamp(-1.0, 1.0)

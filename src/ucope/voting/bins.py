@@ -44,7 +44,9 @@ def decode_bins(logits: torch.Tensor, lo, hi, window: int = 1) -> torch.Tensor:
     # The argmax (column `window`) is the window's maximum: subtract it instead of a max-reduction.
     p = torch.exp(g - g[..., window : window + 1])
     p = torch.where((j >= 0) & (j < n), p, 0.0)
-    pos = idx.squeeze(-1).to(logits.dtype) + (p * torch.arange(-window, window + 1, device=logits.device, dtype=logits.dtype)).sum(-1) / p.sum(-1)
+    pos = idx.squeeze(-1).to(logits.dtype) + (
+        p * torch.arange(-window, window + 1, device=logits.device, dtype=logits.dtype)
+    ).sum(-1) / p.sum(-1)
     try:
         out = lo + (pos + 0.5) * ((hi - lo) / n)
     except RuntimeError as e:

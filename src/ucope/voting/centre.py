@@ -50,8 +50,16 @@ import torch
 from ..errors import InputError
 from .arrays import cross_rows, dot3, median, np64, strided, tensor
 
-__all__ = ["CentreOptions", "vote_centre", "centre_from_circles", "circle_candidates", "circle_distance", "pair_frames",
-           "perpendicular_basis", "DEFAULT_CELL_FRACTION"]
+__all__ = [
+    "CentreOptions",
+    "vote_centre",
+    "centre_from_circles",
+    "circle_candidates",
+    "circle_distance",
+    "pair_frames",
+    "perpendicular_basis",
+    "DEFAULT_CELL_FRACTION",
+]
 
 DEFAULT_CELL_FRACTION = 1.0 / 20.0
 """Default grid cell as a fraction of the part's vote range ``V``."""
@@ -96,7 +104,9 @@ class CentreOptions:
             raise InputError("max_cells, max_grid_pairs and max_refine_pairs must be positive, refine_iters >= 0")
 
 
-def pair_frames(a: torch.Tensor, b: torch.Tensor, mu: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+def pair_frames(
+    a: torch.Tensor, b: torch.Tensor, mu: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
     """Per pair: the unit direction ``e``, the foot ``f = a - mu e`` and an orthonormal basis ``p, q``
     of the plane normal to ``e`` (``e x p = q``), plus a validity mask (``|a - b| > 1e-9``).
 
@@ -196,8 +206,18 @@ def grid_peak(cand: torch.Tensor, w: torch.Tensor, cell: float, max_cells: int) 
     return lo + (idx + 0.5) * cell
 
 
-def _refine_centre(c: np.ndarray, f: np.ndarray, e: np.ndarray, p: np.ndarray, nu: np.ndarray, w: np.ndarray,
-                   tol0: float, tol_min: float, iters: int, tol_start: float) -> np.ndarray:
+def _refine_centre(
+    c: np.ndarray,
+    f: np.ndarray,
+    e: np.ndarray,
+    p: np.ndarray,
+    nu: np.ndarray,
+    w: np.ndarray,
+    tol0: float,
+    tol_min: float,
+    iters: int,
+    tol_start: float,
+) -> np.ndarray:
     """Iteratively reweighted Gauss-Newton on the circle distances (module docstring, step 2).
     ``c`` ``(3,)``; ``f, e, p`` ``(3, M)``; ``nu, w`` ``(M,)``, all float64 numpy (a few dozen small
     operations per iteration on at most ``max_refine_pairs`` pairs: numpy's per-call cost is a
@@ -291,8 +311,16 @@ def vote_centre(
     return c, inliers
 
 
-def centre_from_circles(at: torch.Tensor, bt: torch.Tensor, mu: torch.Tensor, nu: torch.Tensor, w: torch.Tensor, cell: float,
-                        options: CentreOptions, viewpoint=(0.0, 0.0, 0.0)) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+def centre_from_circles(
+    at: torch.Tensor,
+    bt: torch.Tensor,
+    mu: torch.Tensor,
+    nu: torch.Tensor,
+    w: torch.Tensor,
+    cell: float,
+    options: CentreOptions,
+    viewpoint=(0.0, 0.0, 0.0),
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """The work of :func:`vote_centre` on inputs it has checked: coordinate-major pair points ``at, bt``
     ``(3, M)``, ``mu, nu, w`` ``(M,)``, the grid cell ``cell`` (metres). Returns ``(centre (3,),
     inliers (M,), e (3, M))`` with ``e`` the unit pair directions (the axis votes reuse them)."""

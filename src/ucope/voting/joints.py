@@ -23,8 +23,9 @@ Frames and units: camera frame, metres. Float32 torch on the device of the input
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -107,12 +108,17 @@ def joint_from_points(
         axis = -axis
     used = w > 0
     return JointVote(
-        pivot=pivot.double().cpu().numpy(), axis=axis.double().cpu().numpy(), num_points=int(used.sum()),
-        fallback=fallback, score=float((heat * sc)[used].mean()),
+        pivot=pivot.double().cpu().numpy(),
+        axis=axis.double().cpu().numpy(),
+        num_points=int(used.sum()),
+        fallback=fallback,
+        score=float((heat * sc)[used].mean()),
     )
 
 
-def vote_joints(points, outputs: Mapping[str, Any], priors: CategoryPriors, awareness: bool = True, threshold: float = 0.5) -> dict[str, np.ndarray]:
+def vote_joints(
+    points, outputs: Mapping[str, Any], priors: CategoryPriors, awareness: bool = True, threshold: float = 0.5
+) -> dict[str, np.ndarray]:
     """Every joint of one object (batch size 1) from the network's joint heads.
 
     Args:
@@ -132,8 +138,12 @@ def vote_joints(points, outputs: Mapping[str, Any], priors: CategoryPriors, awar
     pts = as_points(points, "points")
     N = pts.shape[0]
     out = dict(
-        joint_pivot=np.zeros((J, 3)), joint_axis=np.zeros((J, 3)), joint_type=np.array([int(j.type) for j in priors.joints], dtype=np.int64),
-        joint_num_points=np.zeros(J, dtype=np.int64), joint_fallback=np.zeros(J, dtype=bool), joint_score=np.zeros(J),
+        joint_pivot=np.zeros((J, 3)),
+        joint_axis=np.zeros((J, 3)),
+        joint_type=np.array([int(j.type) for j in priors.joints], dtype=np.int64),
+        joint_num_points=np.zeros(J, dtype=np.int64),
+        joint_fallback=np.zeros(J, dtype=bool),
+        joint_score=np.zeros(J),
     )
     if J == 0:
         return out
@@ -148,8 +158,13 @@ def vote_joints(points, outputs: Mapping[str, Any], priors: CategoryPriors, awar
         heads[name] = tensor(x, name, tuple(x.shape), device=pts.device).reshape(shape[1:])
     for j in range(J):  # a handful of joints; everything inside is vectorised over points
         v = joint_from_points(
-            pts, heads["joint_heat"][j], heads["joint_offset"][j], heads["joint_dir"][j], heads["joint_score"][j],
-            awareness=awareness, threshold=threshold,
+            pts,
+            heads["joint_heat"][j],
+            heads["joint_offset"][j],
+            heads["joint_dir"][j],
+            heads["joint_score"][j],
+            awareness=awareness,
+            threshold=threshold,
         )
         out["joint_pivot"][j] = v.pivot
         out["joint_axis"][j] = v.axis

@@ -84,9 +84,17 @@ class ShapeIndex:
         return cls(tuple(cKDTree(np.asarray(t, dtype=np.float64)) if len(t) else None for t in templates))
 
 
-def resolve_shape_flips(cam_from_part: np.ndarray, size_m: np.ndarray, points: np.ndarray, part_points: list,
-                        priors: CategoryPriors, shapes: ShapeIndex | None = None, margin: float = 0.75, clip: float = 0.25,
-                        max_points: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+def resolve_shape_flips(
+    cam_from_part: np.ndarray,
+    size_m: np.ndarray,
+    points: np.ndarray,
+    part_points: list,
+    priors: CategoryPriors,
+    shapes: ShapeIndex | None = None,
+    margin: float = 0.75,
+    clip: float = 0.25,
+    max_points: int = 1024,
+) -> tuple[np.ndarray, np.ndarray]:
     """Turn back parts whose voted rotation is a half turn (about one of the part's axes) away from
     the pose their own points fit best (beyond the paper).
 
@@ -136,8 +144,9 @@ def _range_distance(q: float, lo: float | None, hi: float | None) -> float:
     return 0.0 if q <= hi else min(q - hi, lo + 2 * np.pi - q)
 
 
-def resolve_joint_flips(cam_from_part: np.ndarray, joint_axis: np.ndarray, priors: CategoryPriors,
-                        size_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def resolve_joint_flips(
+    cam_from_part: np.ndarray, joint_axis: np.ndarray, priors: CategoryPriors, size_m: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Undo half-turn flips of part rotations that contradict a revolute joint.
 
     A box is unchanged by a half turn about any of its own axes, so the votes of a plate-like part (a
@@ -304,13 +313,15 @@ def kinematic_refine(
     state = q.copy()
     for j, jp in enumerate(priors.joints):
         if jp.type == JointType.PRISMATIC:
-            state[j] = joint_state_from_poses(out_T[parent[j]], out_T[child[j]], axis[j], JointType.PRISMATIC, S[parent[j]], S[child[j]],
-                                              jp.zero_offset_m)
+            state[j] = joint_state_from_poses(
+                out_T[parent[j]], out_T[child[j]], axis[j], JointType.PRISMATIC, S[parent[j]], S[child[j]], jp.zero_offset_m
+            )
     return dict(cam_from_part=out_T, joint_axis=axis, joint_pivot=pivot, joint_state=state)
 
 
-def clamp_joint_states(cam_from_part: np.ndarray, joint_axis: np.ndarray, joint_pivot: np.ndarray, joint_state: np.ndarray,
-                       priors: CategoryPriors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def clamp_joint_states(
+    cam_from_part: np.ndarray, joint_axis: np.ndarray, joint_pivot: np.ndarray, joint_state: np.ndarray, priors: CategoryPriors
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Bring joint states that voting put outside the category's limits back onto them, moving the child.
 
     A state is measured about the voted joint axis ``u``; the limits about the canonical one ``R_p a``

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -57,19 +58,28 @@ def vote_object(
         whose state was brought back into its limits; ``refined`` tells whether the kinematic refinement ran.
     """
     score_filter = awareness if score_filter is None else score_filter
-    out = vote_parts(points, normals, pair_idx, outputs, priors, score_filter=score_filter, options=options, axis_heads=axis_heads)
+    out = vote_parts(
+        points, normals, pair_idx, outputs, priors, score_filter=score_filter, options=options, axis_heads=axis_heads
+    )
     out["shape_turned"] = np.zeros(priors.num_parts, dtype=bool)
     if resolve_flips and shape_flips and priors.num_joints == 0:
         idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx)
         idx = idx.reshape(priors.num_parts, -1)
         pts = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64)
-        out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(out["cam_from_part"], out["size_m"], pts,
-                                                                        [np.unique(i) for i in idx], priors, shapes)
+        out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(
+            out["cam_from_part"], out["size_m"], pts, [np.unique(i) for i in idx], priors, shapes
+        )
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
-def regressed_object(points, outputs: Mapping[str, Any], priors: CategoryPriors, awareness: bool = True, refine: bool = False,
-                     resolve_flips: bool = True) -> dict[str, Any]:
+def regressed_object(
+    points,
+    outputs: Mapping[str, Any],
+    priors: CategoryPriors,
+    awareness: bool = True,
+    refine: bool = False,
+    resolve_flips: bool = True,
+) -> dict[str, Any]:
     """The same dict as :func:`vote_object` for the direct-regression baseline
     (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
     ``(1, K, 3, 3)``, ``centre_m`` ``(1, K, 3)`` and ``gamma`` ``(1, K, 3)`` outputs (score 1, no
@@ -80,13 +90,25 @@ def regressed_object(points, outputs: Mapping[str, Any], priors: CategoryPriors,
     gamma = outputs["gamma"].reshape(K, 3).double().cpu().numpy()
     T = np.tile(np.eye(4), (K, 1, 1))
     T[:, :3, :3], T[:, :3, 3] = R, t
-    out = {"cam_from_part": T, "size_m": np.exp(gamma) * priors.mean_size_m,
-           "score": np.ones(K), "num_pairs": np.zeros(K, dtype=np.int64)}
+    out = {
+        "cam_from_part": T,
+        "size_m": np.exp(gamma) * priors.mean_size_m,
+        "score": np.ones(K),
+        "num_pairs": np.zeros(K, dtype=np.int64),
+    }
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
-def _with_joints(out: dict, points, outputs, priors: CategoryPriors, awareness: bool, refine: bool, resolve_flips: bool = True,
-                 clamp_states: bool = True) -> dict[str, Any]:
+def _with_joints(
+    out: dict,
+    points,
+    outputs,
+    priors: CategoryPriors,
+    awareness: bool,
+    refine: bool,
+    resolve_flips: bool = True,
+    clamp_states: bool = True,
+) -> dict[str, Any]:
     """Add the joints (:func:`vote_joints`), undo half-turn flips that contradict them
     (:func:`resolve_joint_flips`), then the joint states, clamped into the limits
     (:func:`clamp_joint_states`, the joint score halved where clamped), and the optional refinement."""
@@ -104,7 +126,8 @@ def _with_joints(out: dict, points, outputs, priors: CategoryPriors, awareness: 
     out["joint_clamped"] = np.zeros(J, dtype=bool)
     if clamp_states and J > 0:
         out["cam_from_part"], out["joint_state"], out["joint_clamped"] = clamp_joint_states(
-            T, out["joint_axis"], out["joint_pivot"], state, priors)
+            T, out["joint_axis"], out["joint_pivot"], state, priors
+        )
         out["joint_score"] = np.where(out["joint_clamped"], 0.5 * out["joint_score"], out["joint_score"])
         T = out["cam_from_part"]
     out["refined"] = False

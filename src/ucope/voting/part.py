@@ -37,8 +37,9 @@ import dataclasses
 import functools
 import math
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 import torch
@@ -185,19 +186,47 @@ def vote_part(
 
     mu = decode_bins(mu_l, -V, V, opt.window)
     nu = decode_bins(nu_l, 0.0, V, opt.window)
-    return _vote_part(a, b, n_a, mu, nu, functools.partial(_rows, (al_l, be_l, sg_l)), gam, torch.sigmoid(ps), V, mean_size,
-                      symmetric, score_filter, opt, t0)
+    return _vote_part(
+        a,
+        b,
+        n_a,
+        mu,
+        nu,
+        functools.partial(_rows, (al_l, be_l, sg_l)),
+        gam,
+        torch.sigmoid(ps),
+        V,
+        mean_size,
+        symmetric,
+        score_filter,
+        opt,
+        t0,
+    )
 
 
-def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: np.ndarray, symmetric: bool,
-               score_filter: bool, opt: VotingOptions, t0: float) -> PartVote:
+def _vote_part(
+    a,
+    b,
+    n_a,
+    mu,
+    nu,
+    axis_logits,
+    gam,
+    prob,
+    V: float,
+    mean_size: np.ndarray,
+    symmetric: bool,
+    score_filter: bool,
+    opt: VotingOptions,
+    t0: float,
+) -> PartVote:
     """:func:`vote_part` on checked inputs, with ``mu, nu`` ``(M,)`` already decoded (for every pair:
     decoding is row-wise, so :func:`vote_parts` decodes all parts at once), ``axis_logits(rows)`` the
     ``alpha``, ``beta`` and sign logits of the pairs ``rows`` ``(A,)`` (``(A, bins)``, ``(A, bins)``,
     ``(A, 2)``: computed lazily at inference), and ``prob`` ``(M,)`` the part-score probabilities;
     ``t0`` the start time of the decode stage."""
     dev = a.device
-    M = a.shape[0]
+    a.shape[0]
     # 1. Part awareness, among the pairs of two distinct points (a pair (i, i) has no direction; the
     # network can still give it a high part score).
     fallback = False
@@ -213,15 +242,24 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     if S == 0:  # every pair is degenerate: no estimate (score 0) rather than an error
         T = np.eye(4)
         T[:3, 3] = a.double().mean(0).cpu().numpy()
-        return PartVote(cam_from_part=T, size_m=mean_size.copy(), score=0.0, num_pairs=0, num_inliers=0, fallback=True,
-                        timings_ms=dict(decode=1000.0 * (time.perf_counter() - t0), centre=0.0, axes=0.0, rotation=0.0, size=0.0))
+        return PartVote(
+            cam_from_part=T,
+            size_m=mean_size.copy(),
+            score=0.0,
+            num_pairs=0,
+            num_inliers=0,
+            fallback=True,
+            timings_ms=dict(decode=1000.0 * (time.perf_counter() - t0), centre=0.0, axes=0.0, rotation=0.0, size=0.0),
+        )
     # 2. The voting pairs' decoded mu, nu (they all take part in the inlier test).
     mu, nu = mu[sel], nu[sel]
     t1 = time.perf_counter()
     # 3. Centre.
     at = a[sel].T.contiguous()
     bt = b[sel].T.contiguous()
-    centre, inl, et = centre_from_circles(at, bt, mu, nu, torch.ones(S, device=dev), V * float(opt.centre.cell_fraction), opt.centre)
+    centre, inl, et = centre_from_circles(
+        at, bt, mu, nu, torch.ones(S, device=dev), V * float(opt.centre.cell_fraction), opt.centre
+    )
     n_inl = int(inl.sum())
     pool = torch.nonzero(inl).squeeze(-1) if n_inl > 0 else torch.arange(S, device=dev)
     t2 = time.perf_counter()
@@ -239,14 +277,17 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     beta = None if symmetric else decode_bins(be_l, 0.0, math.pi, opt.window)
     # The coarse vote of both axes at once (the same pairs and cone bases; one cube-map histogram).
     cs = strided(torch.arange(len(ax), device=dev), int(ao.max_coarse_pairs))
-    coarse = coarse_axes(e_ax[:, cs], alpha[cs] if symmetric else torch.stack([alpha[cs], beta[cs]]), ones[cs],
-                         int(ao.num_angles), int(ao.grid))
+    coarse = coarse_axes(
+        e_ax[:, cs], alpha[cs] if symmetric else torch.stack([alpha[cs], beta[cs]]), ones[cs], int(ao.num_angles), int(ao.grid)
+    )
     up, _ = axis_from_cones(e_ax, alpha, ones, ao_all, coarse=coarse if symmetric else coarse[0], with_inliers=False)
     up, _ = signed_axis(up, e_ax, alpha, n_ax, sg_l[:, 0], every, float(ao.tol_deg), float(opt.sign_margin), opt.use_sign_bits)
     right = None
     if not symmetric:
         right, _ = axis_from_cones(e_ax, beta, ones, ao_all, coarse=coarse[1], with_inliers=False)
-        right, _ = signed_axis(right, e_ax, beta, n_ax, sg_l[:, 1], every, float(ao.tol_deg), float(opt.sign_margin), opt.use_sign_bits)
+        right, _ = signed_axis(
+            right, e_ax, beta, n_ax, sg_l[:, 1], every, float(ao.tol_deg), float(opt.sign_margin), opt.use_sign_bits
+        )
     t3 = time.perf_counter()
     # 5. Rotation. Both axes voted onto (nearly) one direction happens on garbage votes: take y alone
     # then (x any perpendicular) and let the refinement find x on the beta cones.
@@ -270,12 +311,20 @@ def _vote_part(a, b, n_a, mu, nu, axis_logits, gam, prob, V: float, mean_size: n
     t5 = time.perf_counter()
     ms = lambda x, y: 1000.0 * (y - x)  # noqa: E731
     return PartVote(
-        cam_from_part=T, size_m=size, score=float(score), num_pairs=S, num_inliers=n_inl, fallback=fallback, mean_prob=mean_prob,
+        cam_from_part=T,
+        size_m=size,
+        score=float(score),
+        num_pairs=S,
+        num_inliers=n_inl,
+        fallback=fallback,
+        mean_prob=mean_prob,
         timings_ms=dict(decode=ms(t0, t1), centre=ms(t1, t2), axes=ms(t2, t3), rotation=ms(t3, t4), size=ms(t4, t5)),
     )
 
 
-def snap_to_visible_face(centre: torch.Tensor, R: torch.Tensor, size: np.ndarray, pts: torch.Tensor, ratio: float, symmetric: bool) -> torch.Tensor:
+def snap_to_visible_face(
+    centre: torch.Tensor, R: torch.Tensor, size: np.ndarray, pts: torch.Tensor, ratio: float, symmetric: bool
+) -> torch.Tensor:
     """:attr:`VotingOptions.thin_snap_ratio`: ``centre`` moved along the thin axis of the box so that
     the median of the part's points ``pts`` ``(P, 3)`` lies on the box face towards the camera. A part
     symmetric about y is snapped only along y (its x and z axes are arbitrary)."""
@@ -358,9 +407,14 @@ def vote_parts(
             raise InputError(f"outputs[{name!r}] must start with (1, K={K}, M={idx.shape[1]}), got {tuple(outputs[name].shape)}")
         heads[name] = x
     out = dict(
-        cam_from_part=np.zeros((K, 4, 4)), size_m=np.zeros((K, 3)), score=np.zeros(K),
-        num_pairs=np.zeros(K, dtype=np.int64), num_inliers=np.zeros(K, dtype=np.int64),
-        fallback=np.zeros(K, dtype=bool), mean_prob=np.zeros(K), timings_ms=[],
+        cam_from_part=np.zeros((K, 4, 4)),
+        size_m=np.zeros((K, 3)),
+        score=np.zeros(K),
+        num_pairs=np.zeros(K, dtype=np.int64),
+        num_inliers=np.zeros(K, dtype=np.int64),
+        fallback=np.zeros(K, dtype=bool),
+        mean_prob=np.zeros(K),
+        timings_ms=[],
     )
     opt = options or VotingOptions()
     t0 = time.perf_counter()
@@ -378,8 +432,19 @@ def vote_parts(
         else:
             axis_logits = functools.partial(_lazy_rows, axis_heads, k)
         r = _vote_part(
-            pts[ia], pts[ib], nrm[ia], mu_all[k], nu_all[k], axis_logits, gamma_all[k], prob_all[k],
-            float(vote_ranges[k]), mean_sizes[k], priors.symmetric[k], score_filter, opt,
+            pts[ia],
+            pts[ib],
+            nrm[ia],
+            mu_all[k],
+            nu_all[k],
+            axis_logits,
+            gamma_all[k],
+            prob_all[k],
+            float(vote_ranges[k]),
+            mean_sizes[k],
+            priors.symmetric[k],
+            score_filter,
+            opt,
             t0 if k == 0 else time.perf_counter(),
         )
         out["cam_from_part"][k] = r.cam_from_part

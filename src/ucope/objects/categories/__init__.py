@@ -20,8 +20,8 @@ for scale curves) or of an explicit ``family`` (for pictures and tests).
 from __future__ import annotations
 
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -29,8 +29,17 @@ from ...errors import InputError, UnknownCategoryError
 from ..articulation import ArticulatedObject
 
 __all__ = [
-    "CategorySpec", "ShapeFamily", "CATEGORY_NAMES", "SPLITS", "IN_DISTRIBUTION_SPLITS", "OOD_SCALE_RANGE",
-    "get_category", "list_categories", "make_instance", "instance_rng", "instance_family_and_scale",
+    "CategorySpec",
+    "ShapeFamily",
+    "CATEGORY_NAMES",
+    "SPLITS",
+    "IN_DISTRIBUTION_SPLITS",
+    "OOD_SCALE_RANGE",
+    "get_category",
+    "list_categories",
+    "make_instance",
+    "instance_rng",
+    "instance_family_and_scale",
 ]
 
 SPLITS = ("train", "val", "test", "ood")
@@ -147,8 +156,17 @@ def _registry() -> dict[str, CategorySpec]:
 
 
 CATEGORY_NAMES = (
-    "laptop", "eyeglasses", "dishwasher", "scissors", "drawer",
-    "bottle", "bowl", "camera", "can", "laptop_rigid", "mug",
+    "laptop",
+    "eyeglasses",
+    "dishwasher",
+    "scissors",
+    "drawer",
+    "bottle",
+    "bowl",
+    "camera",
+    "can",
+    "laptop_rigid",
+    "mug",
 )
 """All registered category names: the ArtImage five, then the NOCS six (``laptop_rigid`` is NOCS's laptop)."""
 
@@ -228,7 +246,12 @@ def make_instance(
             raise InputError(f"{category} has no shape family {family!r}; its families: {', '.join(spec.family_names)}")
         drawn = family
     if scale is not None:
-        if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)) or not np.isfinite(scale) or scale <= 0:
+        if (
+            isinstance(scale, bool)
+            or not isinstance(scale, int | float | np.integer | np.floating)
+            or not np.isfinite(scale)
+            or scale <= 0
+        ):
             raise InputError(f"scale must be a positive finite number, got {scale!r}")
         factor = float(scale)
     obj = spec.build(rng, f"{category}/{split}/{seed}/{index:06d}", drawn)

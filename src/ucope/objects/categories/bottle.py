@@ -48,21 +48,76 @@ FAMILIES = (
 # radius), wall, shoulder and neck lengths (fractions of H), shoulder roundness, punt (fraction of H),
 # probability of a cap and the cap's height and radial overhang
 RANGES = {
-    "wine": dict(height=(0.28, 0.35), diameter=(0.068, 0.085), neck=(0.0140, 0.0155), wall=(0.003, 0.005), shoulder=(0.08, 0.25),
-                 neck_len=(0.22, 0.30), roundness=(0.0, 0.8), punt=(0.03, 0.09), p_cap=0.6, cap_h=(0.035, 0.060), cap_extra=(0.0012, 0.002),
-                 p_waist=0.0),
-    "water": dict(height=(0.18, 0.33), diameter=(0.055, 0.092), neck=(0.0125, 0.0140), wall=(0.001, 0.0015), shoulder=(0.12, 0.25),
-                  neck_len=(0.04, 0.08), roundness=(0.3, 1.0), punt=(0.0, 0.02), p_cap=1.0, cap_h=(0.012, 0.020), cap_extra=(0.0015, 0.003),
-                  p_waist=0.4),
-    "slim": dict(height=(0.19, 0.30), diameter=(0.045, 0.062), neck=(0.0105, 0.0135), wall=(0.002, 0.004), shoulder=(0.10, 0.25),
-                 neck_len=(0.15, 0.32), roundness=(0.0, 1.0), punt=(0.0, 0.03), p_cap=0.7, cap_h=(0.006, 0.020), cap_extra=(0.0015, 0.0025),
-                 p_waist=0.0),
-    "flask": dict(height=(0.17, 0.28), diameter=(0.060, 0.080), neck_rel=(0.62, 0.85), wall=(0.001, 0.002), shoulder=(0.02, 0.06),
-                  neck_len=(0.03, 0.06), roundness=(0.8, 1.0), punt=(0.0, 0.015), p_cap=1.0, cap_h=(0.020, 0.045), cap_extra=(0.001, 0.003),
-                  p_waist=0.0),
-    "squat": dict(height=(0.09, 0.16), diameter=(0.060, 0.100), neck_rel=(0.45, 0.75), wall=(0.002, 0.004), shoulder=(0.06, 0.15),
-                  neck_len=(0.05, 0.12), roundness=(0.5, 1.0), punt=(0.0, 0.02), p_cap=1.0, cap_h=(0.012, 0.020), cap_extra=(0.0015, 0.003),
-                  p_waist=0.0),
+    "wine": dict(
+        height=(0.28, 0.35),
+        diameter=(0.068, 0.085),
+        neck=(0.0140, 0.0155),
+        wall=(0.003, 0.005),
+        shoulder=(0.08, 0.25),
+        neck_len=(0.22, 0.30),
+        roundness=(0.0, 0.8),
+        punt=(0.03, 0.09),
+        p_cap=0.6,
+        cap_h=(0.035, 0.060),
+        cap_extra=(0.0012, 0.002),
+        p_waist=0.0,
+    ),
+    "water": dict(
+        height=(0.18, 0.33),
+        diameter=(0.055, 0.092),
+        neck=(0.0125, 0.0140),
+        wall=(0.001, 0.0015),
+        shoulder=(0.12, 0.25),
+        neck_len=(0.04, 0.08),
+        roundness=(0.3, 1.0),
+        punt=(0.0, 0.02),
+        p_cap=1.0,
+        cap_h=(0.012, 0.020),
+        cap_extra=(0.0015, 0.003),
+        p_waist=0.4,
+    ),
+    "slim": dict(
+        height=(0.19, 0.30),
+        diameter=(0.045, 0.062),
+        neck=(0.0105, 0.0135),
+        wall=(0.002, 0.004),
+        shoulder=(0.10, 0.25),
+        neck_len=(0.15, 0.32),
+        roundness=(0.0, 1.0),
+        punt=(0.0, 0.03),
+        p_cap=0.7,
+        cap_h=(0.006, 0.020),
+        cap_extra=(0.0015, 0.0025),
+        p_waist=0.0,
+    ),
+    "flask": dict(
+        height=(0.17, 0.28),
+        diameter=(0.060, 0.080),
+        neck_rel=(0.62, 0.85),
+        wall=(0.001, 0.002),
+        shoulder=(0.02, 0.06),
+        neck_len=(0.03, 0.06),
+        roundness=(0.8, 1.0),
+        punt=(0.0, 0.015),
+        p_cap=1.0,
+        cap_h=(0.020, 0.045),
+        cap_extra=(0.001, 0.003),
+        p_waist=0.0,
+    ),
+    "squat": dict(
+        height=(0.09, 0.16),
+        diameter=(0.060, 0.100),
+        neck_rel=(0.45, 0.75),
+        wall=(0.002, 0.004),
+        shoulder=(0.06, 0.15),
+        neck_len=(0.05, 0.12),
+        roundness=(0.5, 1.0),
+        punt=(0.0, 0.02),
+        p_cap=1.0,
+        cap_h=(0.012, 0.020),
+        cap_extra=(0.0015, 0.003),
+        p_waist=0.0,
+    ),
 }
 
 
@@ -124,32 +179,49 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "wine") -> A
     lip_top = top - (0.0 if not has_cap else 0.004)
     if has_cap:  # keep the bead inside the cap
         lip_w = min(lip_w, cap_extra - 0.0005)
-    bead = np.concatenate([
-        arc((Rn + lip_w - lip_w / 2, lip_top - lip_w / 2), lip_w / 2, 0.0, np.pi / 2, 4),
-        [[Rn - 0.3 * t, lip_top], [Rn - 0.3 * t, lip_top - lip_h]],
-        arc((Rn + lip_w - lip_w / 2, lip_top - lip_h + lip_w / 2), lip_w / 2, -np.pi / 2, 0.0, 4),
-    ])
+    bead = np.concatenate(
+        [
+            arc((Rn + lip_w - lip_w / 2, lip_top - lip_w / 2), lip_w / 2, 0.0, np.pi / 2, 4),
+            [[Rn - 0.3 * t, lip_top], [Rn - 0.3 * t, lip_top - lip_h]],
+            arc((Rn + lip_w - lip_w / 2, lip_top - lip_h + lip_w / 2), lip_w / 2, -np.pi / 2, 0.0, 4),
+        ]
+    )
     meshes.append(revolve_profile(bead, SECTIONS, closed=True))
 
     if has_cap:
         Rc = Rn + cap_extra
         f = min(0.0015, 0.3 * cap_h)
         y0 = H - cap_h
-        cap = np.concatenate([
-            [[0.0, y0 + 0.001], [Rc - 0.0005, y0]],
-            [[Rc, y0 + 0.0008], [Rc, H - f]],
-            arc((Rc - f, H - f), f, 0.0, np.pi / 2, 4),
-            [[0.0, H]],
-        ])
+        cap = np.concatenate(
+            [
+                [[0.0, y0 + 0.001], [Rc - 0.0005, y0]],
+                [[Rc, y0 + 0.0008], [Rc, H - f]],
+                arc((Rc - f, H - f), f, 0.0, np.pi / 2, 4),
+                [[0.0, H]],
+            ]
+        )
         meshes.append(revolve_profile(cap, SECTIONS, closed=False))
         # tamper-evident ring just below the cap
         ring = np.array([[Rn, y0 - 0.004], [Rc - 0.0004, y0 - 0.004], [Rc - 0.0004, y0 - 0.0005], [Rn, y0 - 0.0005]])
         meshes.append(revolve_profile(ring, SECTIONS, closed=True))
 
     params = dict(
-        height=H, body_radius=Rb, neck_radius=Rn, wall=t, shoulder_frac=shoulder_frac, neck_frac=neck_frac,
-        shoulder_roundness=roundness, waist_depth=waist_depth, waist_pos=waist_pos, neck_taper=neck_taper,
-        heel_radius=heel, punt=punt, lip_width=lip_w, lip_height=lip_h, has_cap=has_cap, cap_height=cap_h,
+        height=H,
+        body_radius=Rb,
+        neck_radius=Rn,
+        wall=t,
+        shoulder_frac=shoulder_frac,
+        neck_frac=neck_frac,
+        shoulder_roundness=roundness,
+        waist_depth=waist_depth,
+        waist_pos=waist_pos,
+        neck_taper=neck_taper,
+        heel_radius=heel,
+        punt=punt,
+        lip_width=lip_w,
+        lip_height=lip_h,
+        has_cap=has_cap,
+        cap_height=cap_h,
         cap_extra=cap_extra,
     )
     return rigid_object("bottle", instance_id, meshes, "y", params, family)

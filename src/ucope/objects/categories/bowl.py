@@ -49,18 +49,32 @@ FAMILIES = (
 
 # per family: (lo, hi) of rim diameter D, height H (bowl only for footed), wall, and the Bezier shape controls
 RANGES = {
-    "round": dict(diameter=(0.105, 0.200), h_ratio=(0.35, 0.55), wall=(0.003, 0.007), flat=(0.2, 0.6), bulge=(0.2, 0.6),
-                  flare=(0.0, 0.10)),
+    "round": dict(
+        diameter=(0.105, 0.200), h_ratio=(0.35, 0.55), wall=(0.003, 0.007), flat=(0.2, 0.6), bulge=(0.2, 0.6), flare=(0.0, 0.10)
+    ),
     "ramekin": dict(diameter=(0.075, 0.110), h_ratio=(0.42, 0.62), wall=(0.004, 0.007)),
-    "shallow": dict(diameter=(0.180, 0.300), h_ratio=(0.12, 0.22), wall=(0.003, 0.008), flat=(0.55, 0.85), bulge=(0.0, 0.4),
-                    flare=(0.05, 0.25)),
-    "serving": dict(diameter=(0.200, 0.300), h_ratio=(0.32, 0.48), wall=(0.004, 0.008), flat=(0.25, 0.6), bulge=(0.1, 0.5),
-                    flare=(0.02, 0.15)),
-    "footed": dict(diameter=(0.100, 0.180), h_ratio=(0.30, 0.45), wall=(0.003, 0.006), flat=(0.15, 0.5), bulge=(0.2, 0.6),
-                   flare=(0.0, 0.12)),
+    "shallow": dict(
+        diameter=(0.180, 0.300),
+        h_ratio=(0.12, 0.22),
+        wall=(0.003, 0.008),
+        flat=(0.55, 0.85),
+        bulge=(0.0, 0.4),
+        flare=(0.05, 0.25),
+    ),
+    "serving": dict(
+        diameter=(0.200, 0.300), h_ratio=(0.32, 0.48), wall=(0.004, 0.008), flat=(0.25, 0.6), bulge=(0.1, 0.5), flare=(0.02, 0.15)
+    ),
+    "footed": dict(
+        diameter=(0.100, 0.180), h_ratio=(0.30, 0.45), wall=(0.003, 0.006), flat=(0.15, 0.5), bulge=(0.2, 0.6), flare=(0.0, 0.12)
+    ),
 }
-HEIGHT_LIMITS = {"round": (0.045, 0.095), "ramekin": (0.038, 0.060), "shallow": (0.030, 0.060), "serving": (0.080, 0.130),
-                 "footed": (0.040, 0.080)}
+HEIGHT_LIMITS = {
+    "round": (0.045, 0.095),
+    "ramekin": (0.038, 0.060),
+    "shallow": (0.030, 0.060),
+    "serving": (0.080, 0.130),
+    "footed": (0.040, 0.080),
+}
 
 
 def _bezier(p: np.ndarray, n: int) -> np.ndarray:
@@ -128,18 +142,29 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "round") -> 
         td = min(0.006, 0.3 * ped_h)
         r_in = np.linspace(2.0 * stem_r, 0.0, 6)  # the stem's top runs inside the bowl's bottom (half a wall up)
         top = np.stack([r_in, ped_h + np.interp(r_in, curve[:, 0], curve[:, 1]) + 0.5 * t], -1)
-        ped = np.concatenate([
-            [[0.0, 0.0], [ped_r - td / 2, 0.0]],
-            arc((ped_r - td / 2, td / 2), td / 2, -np.pi / 2, np.pi / 2, 5)[1:],
-            [[stem_r * 1.6, td + 0.003], [stem_r, td + 0.35 * (ped_h - td)], [stem_r, ped_h - 0.004]],
-            top,
-        ])
+        ped = np.concatenate(
+            [
+                [[0.0, 0.0], [ped_r - td / 2, 0.0]],
+                arc((ped_r - td / 2, td / 2), td / 2, -np.pi / 2, np.pi / 2, 5)[1:],
+                [[stem_r * 1.6, td + 0.003], [stem_r, td + 0.35 * (ped_h - td)], [stem_r, ped_h - 0.004]],
+                top,
+            ]
+        )
         meshes.append(revolve_profile(ped, SECTIONS, closed=False))
 
     params = dict(
-        radius=R, height=H + ped_h, wall=t, foot_height=foot_h if has_ring else 0.0, foot_radius=foot_frac * R if has_ring else 0.0,
-        foot_width=foot_w if has_ring else 0.0, bottom_flatness=flat, wall_bulge=wall_c, flare=flare,
-        draft_rad=float(draft) if family == "ramekin" else 0.0, pedestal_height=ped_h, pedestal_radius=ped_r if ped_h else 0.0,
+        radius=R,
+        height=H + ped_h,
+        wall=t,
+        foot_height=foot_h if has_ring else 0.0,
+        foot_radius=foot_frac * R if has_ring else 0.0,
+        foot_width=foot_w if has_ring else 0.0,
+        bottom_flatness=flat,
+        wall_bulge=wall_c,
+        flare=flare,
+        draft_rad=float(draft) if family == "ramekin" else 0.0,
+        pedestal_height=ped_h,
+        pedestal_radius=ped_r if ped_h else 0.0,
         stem_radius=stem_r if ped_h else 0.0,
     )
     return rigid_object("bowl", instance_id, meshes, "y", params, family)

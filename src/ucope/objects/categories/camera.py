@@ -48,26 +48,30 @@ def _lens_profile(rl: float, L: float, mount_len: float, front_len: float, n_rib
     rf = 1.06 * rl
     lip = min(0.0015, 0.3 * front_len)
     glass_y = L - 0.4 * front_len
-    return np.concatenate([
-        [[0.0, -0.003], [rm, -0.003], [rm, mount_len], [rl, mount_len], [rl, y_focus0]],
-        np.stack([focus_r, f], -1),
-        [[rl, y_focus1], [0.98 * rl, y_focus1 + 0.001], [0.98 * rl, L - front_len], [rf, L - front_len], [rf, L - lip]],
-        arc((rf - lip, L - lip), lip, 0.0, np.pi / 2, 4)[1:],
-        [[0.88 * rl, L], [0.8 * rl, glass_y]],
-        arc((0.0, glass_y), (0.8 * rl, 0.2 * front_len), 0.0, np.pi / 2, 6)[1:],
-    ])
+    return np.concatenate(
+        [
+            [[0.0, -0.003], [rm, -0.003], [rm, mount_len], [rl, mount_len], [rl, y_focus0]],
+            np.stack([focus_r, f], -1),
+            [[rl, y_focus1], [0.98 * rl, y_focus1 + 0.001], [0.98 * rl, L - front_len], [rf, L - front_len], [rf, L - lip]],
+            arc((rf - lip, L - lip), lip, 0.0, np.pi / 2, 4)[1:],
+            [[0.88 * rl, L], [0.8 * rl, glass_y]],
+            arc((0.0, glass_y), (0.8 * rl, 0.2 * front_len), 0.0, np.pi / 2, 6)[1:],
+        ]
+    )
 
 
 def _short_lens_profile(rl: float, L: float) -> np.ndarray:
     """Open (r, y) profile of a short lens (compacts, action cameras): a stepped ring and a glass dome."""
     rm = 1.15 * rl
     lip = min(0.001, 0.2 * L)
-    return np.concatenate([
-        [[0.0, -0.003], [rm, -0.003], [rm, 0.45 * L], [rl, 0.45 * L], [rl, L - lip]],
-        arc((rl - lip, L - lip), lip, 0.0, np.pi / 2, 4)[1:],
-        [[0.82 * rl, L], [0.75 * rl, 0.75 * L]],
-        arc((0.0, 0.75 * L), (0.75 * rl, 0.15 * L), 0.0, np.pi / 2, 6)[1:],
-    ])
+    return np.concatenate(
+        [
+            [[0.0, -0.003], [rm, -0.003], [rm, 0.45 * L], [rl, 0.45 * L], [rl, L - lip]],
+            arc((rl - lip, L - lip), lip, 0.0, np.pi / 2, 4)[1:],
+            [[0.82 * rl, L], [0.75 * rl, 0.75 * L]],
+            arc((0.0, 0.75 * L), (0.75 * rl, 0.15 * L), 0.0, np.pi / 2, 6)[1:],
+        ]
+    )
 
 
 FAMILIES = (
@@ -79,14 +83,46 @@ FAMILIES = (
 
 # per family: (lo, hi) of body width, height, depth, lens radius and length, grip protrusion, hump height (m)
 RANGES = {
-    "dslr": dict(width=(0.125, 0.150), height=(0.075, 0.095), depth=(0.045, 0.065), lens_r=(0.030, 0.040), lens_len=(0.045, 0.110),
-                 grip=(0.020, 0.035), hump=(0.015, 0.025), p_hump=1.0),
-    "mirrorless": dict(width=(0.110, 0.135), height=(0.062, 0.085), depth=(0.032, 0.050), lens_r=(0.026, 0.034), lens_len=(0.020, 0.090),
-                       grip=(0.010, 0.025), hump=(0.010, 0.020), p_hump=0.7),
-    "compact": dict(width=(0.095, 0.115), height=(0.055, 0.068), depth=(0.025, 0.042), lens_r=(0.014, 0.022), lens_len=(0.004, 0.030),
-                    grip=(0.002, 0.008), hump=(0.0, 0.0), p_hump=0.0),
-    "action": dict(width=(0.060, 0.075), height=(0.040, 0.056), depth=(0.020, 0.034), lens_r=(0.008, 0.012), lens_len=(0.004, 0.010),
-                   grip=(0.0, 0.0), hump=(0.0, 0.0), p_hump=0.0),
+    "dslr": dict(
+        width=(0.125, 0.150),
+        height=(0.075, 0.095),
+        depth=(0.045, 0.065),
+        lens_r=(0.030, 0.040),
+        lens_len=(0.045, 0.110),
+        grip=(0.020, 0.035),
+        hump=(0.015, 0.025),
+        p_hump=1.0,
+    ),
+    "mirrorless": dict(
+        width=(0.110, 0.135),
+        height=(0.062, 0.085),
+        depth=(0.032, 0.050),
+        lens_r=(0.026, 0.034),
+        lens_len=(0.020, 0.090),
+        grip=(0.010, 0.025),
+        hump=(0.010, 0.020),
+        p_hump=0.7,
+    ),
+    "compact": dict(
+        width=(0.095, 0.115),
+        height=(0.055, 0.068),
+        depth=(0.025, 0.042),
+        lens_r=(0.014, 0.022),
+        lens_len=(0.004, 0.030),
+        grip=(0.002, 0.008),
+        hump=(0.0, 0.0),
+        p_hump=0.0,
+    ),
+    "action": dict(
+        width=(0.060, 0.075),
+        height=(0.040, 0.056),
+        depth=(0.020, 0.034),
+        lens_r=(0.008, 0.012),
+        lens_len=(0.004, 0.010),
+        grip=(0.0, 0.0),
+        hump=(0.0, 0.0),
+        p_hump=0.0,
+    ),
 }
 
 
@@ -140,7 +176,15 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
         y_l = -0.6 * lens_v * y_room if family == "dslr" else (lens_v - 0.5) * 0.6 * y_room
         gh = grip_h * Hb
         gsize = (grip_w, gh, D + grip_d)
-        meshes.append(rounded_slab(gsize, 0.45 * min(grip_w, D + grip_d), axis="y", center=(-W / 2 + grip_w / 2, -Hb / 2 + gh / 2, grip_d / 2), n_corner=8))
+        meshes.append(
+            rounded_slab(
+                gsize,
+                0.45 * min(grip_w, D + grip_d),
+                axis="y",
+                center=(-W / 2 + grip_w / 2, -Hb / 2 + gh / 2, grip_d / 2),
+                n_corner=8,
+            )
+        )
         prof = _lens_profile(rl, L, mount_len, front_len, n_ribs) if L >= 0.015 else _short_lens_profile(rl, L)
         lens = revolve_profile(prof, 48, closed=False)
         meshes.append(transformed(lens, _Y_TO_Z, (x_l, y_l, D / 2)))
@@ -161,22 +205,48 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
             poly = np.array([[-hump_w / 2, 0.0], [hump_w / 2, 0.0], [tw / 2, hump_h], [-tw / 2, hump_h]])
             meshes.append(transformed(extrude(poly, hd, plane="xy"), None, (x_l, top - 0.001, -D / 2 + hd / 2)))
             meshes.append(box((0.6 * tw, 0.003, 0.6 * hd), (x_l, top - 0.001 + hump_h + 0.0015, -D / 2 + hd / 2)))
-            meshes.append(rounded_slab((0.022, min(0.016, 0.8 * hump_h + 0.006), 0.012), 0.004, axis="z", center=(x_l, top + 0.4 * hump_h, -D / 2 - 0.004)))
+            meshes.append(
+                rounded_slab(
+                    (0.022, min(0.016, 0.8 * hump_h + 0.006), 0.012),
+                    0.004,
+                    axis="z",
+                    center=(x_l, top + 0.4 * hump_h, -D / 2 - 0.004),
+                )
+            )
         if family == "compact":  # flash window and viewfinder window on the front face
-            meshes.append(boxes(
-                np.array([[W / 2 - 0.016, top - 0.012, D / 2 + 0.0006], [x_l - 0.5 * rl, top - 0.01, D / 2 + 0.0006]]),
-                np.array([[0.018, 0.009, 0.0012], [0.01, 0.007, 0.0012]]),
-            ))
+            meshes.append(
+                boxes(
+                    np.array([[W / 2 - 0.016, top - 0.012, D / 2 + 0.0006], [x_l - 0.5 * rl, top - 0.01, D / 2 + 0.0006]]),
+                    np.array([[0.018, 0.009, 0.0012], [0.01, 0.007, 0.0012]]),
+                )
+            )
     # screen on the back
     sw, sh = screen_frac * W, (0.62 if family != "action" else 0.8) * Hb
     x_screen = W / 2 - sw / 2 - 0.08 * W if family != "action" else 0.0
     meshes.append(box((sw, sh, 0.002), (x_screen, -0.05 * Hb if family != "action" else 0.0, -D / 2 - 0.0008)))
 
     params = dict(
-        width=W, height=Hb, depth=D, corner_radius=corner, lens_radius=rl, lens_length=L,
-        lens_x=x_l, lens_y=y_l, grip_width=grip_w, grip_depth=grip_d, grip_height=grip_h, mount_length=mount_len,
-        front_ring_length=front_len, n_ribs=n_ribs, has_hump=has_hump, hump_height=hump_h if has_hump else 0.0,
-        hump_width=hump_w if has_hump else 0.0, button_radius=button_r, dial_radius=dial_r, has_dial=has_dial, screen_frac=screen_frac,
+        width=W,
+        height=Hb,
+        depth=D,
+        corner_radius=corner,
+        lens_radius=rl,
+        lens_length=L,
+        lens_x=x_l,
+        lens_y=y_l,
+        grip_width=grip_w,
+        grip_depth=grip_d,
+        grip_height=grip_h,
+        mount_length=mount_len,
+        front_ring_length=front_len,
+        n_ribs=n_ribs,
+        has_hump=has_hump,
+        hump_height=hump_h if has_hump else 0.0,
+        hump_width=hump_w if has_hump else 0.0,
+        button_radius=button_r,
+        dial_radius=dial_r,
+        has_dial=has_dial,
+        screen_frac=screen_frac,
     )
     return rigid_object("camera", instance_id, meshes, "none", params, family)
 

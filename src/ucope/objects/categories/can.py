@@ -16,7 +16,7 @@ Shape families (outer diameter D, height H; metres):
 family    D              H              products
 ========= ============== ============== ==========================================================
 standard  0.065-0.068    0.115-0.135    drink can, 330 ml (115 x 66 mm), 355 ml (122 mm), 440 ml (135 mm)
-slim      0.053-0.058    0.088-0.146    slim / sleek drink cans: 150 ml mini, 250 ml slim (134 x 53 mm), 330 ml sleek (146 x 58 mm)
+slim      0.053-0.058    0.088-0.146    slim / sleek drink cans: 150 ml mini, 250 ml slim (134 x 53), 330 ml sleek (146 x 58)
 tall      0.065-0.068    0.155-0.170    tall drink / energy cans, 473-568 ml (500 ml: 168 x 66 mm)
 food      0.065-0.101    0.070-0.120    food tins (ribbed or plain), 200-800 g
 squat     0.065-0.100    0.035-0.055    squat tins (tuna, pet food, 85 x 40 mm); held out
@@ -52,7 +52,9 @@ def _drink_can(R: float, H: float, rng: np.random.Generator, p: dict) -> np.ndar
     dome_pts = np.stack([rr, dome * (1.0 - (rr / (ring_r - 0.002)) ** 2)], -1)
     ring = arc((ring_r, 0.002), 0.002, np.pi, 2 * np.pi, 5)[1:]
     u = np.linspace(0.0, 1.0, 6)[1:]
-    heel = np.stack([ring_r + 0.002 + (R - ring_r - 0.002) * np.sin(u * np.pi / 2), 0.002 + heel_h * (1 - np.cos(u * np.pi / 2))], -1)
+    heel = np.stack(
+        [ring_r + 0.002 + (R - ring_r - 0.002) * np.sin(u * np.pi / 2), 0.002 + heel_h * (1 - np.cos(u * np.pi / 2))], -1
+    )
     body_top = H - neck_h
     body = np.array([[R, body_top]])
     w = np.linspace(0.0, 1.0, 9)[1:]
@@ -126,5 +128,8 @@ SPEC = CategorySpec(
     elevation_range_deg=(10.0, 60.0),
     shape_families=FAMILIES,
     build=build,
-    description="revolved drink can (standard, slim, tall: domed bottom, neck, rolled lip) or food tin (food, squat: seamed rims, ribs)",
+    description=(
+        "revolved drink can (standard, slim, tall: domed bottom, neck, rolled lip) "
+        "or food tin (food, squat: seamed rims, ribs)"
+    ),
 )

@@ -92,13 +92,18 @@ FAMILIES = (
 
 # per family: (lo, hi) of width, height, depth, door thickness, kick (plinth) height; probability of a worktop lid
 RANGES = {
-    "freestanding": dict(width=(0.595, 0.610), height=(0.815, 0.890), depth=(0.570, 0.630), door=(0.040, 0.070), kick=(0.08, 0.12),
-                         p_top=1.0),
-    "slim": dict(width=(0.445, 0.450), height=(0.815, 0.860), depth=(0.550, 0.630), door=(0.040, 0.070), kick=(0.08, 0.12), p_top=0.5),
-    "integrated": dict(width=(0.446, 0.598), height=(0.815, 0.870), depth=(0.550, 0.575), door=(0.050, 0.075), kick=(0.09, 0.15),
-                       p_top=0.0),
-    "countertop": dict(width=(0.540, 0.560), height=(0.430, 0.500), depth=(0.480, 0.520), door=(0.035, 0.050), kick=(0.045, 0.065),
-                       p_top=0.0),
+    "freestanding": dict(
+        width=(0.595, 0.610), height=(0.815, 0.890), depth=(0.570, 0.630), door=(0.040, 0.070), kick=(0.08, 0.12), p_top=1.0
+    ),
+    "slim": dict(
+        width=(0.445, 0.450), height=(0.815, 0.860), depth=(0.550, 0.630), door=(0.040, 0.070), kick=(0.08, 0.12), p_top=0.5
+    ),
+    "integrated": dict(
+        width=(0.446, 0.598), height=(0.815, 0.870), depth=(0.550, 0.575), door=(0.050, 0.075), kick=(0.09, 0.15), p_top=0.0
+    ),
+    "countertop": dict(
+        width=(0.540, 0.560), height=(0.430, 0.500), depth=(0.480, 0.520), door=(0.035, 0.050), kick=(0.045, 0.065), p_top=0.0
+    ),
 }
 
 
@@ -138,12 +143,19 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     Db = D - Td - 0.0015  # body depth (the door and its 1.5 mm gap make up the rest)
     zb, zf = -D / 2, -D / 2 + Db  # body back and front planes
     body = []
-    body.append(open_box((W, H_body, Db), wt, center=(0.0, H_body / 2, zb + Db / 2), open_side="+z",
-                         shelves_y=(kick_h - wt / 2 - H_body / 2,)))
+    body.append(
+        open_box(
+            (W, H_body, Db), wt, center=(0.0, H_body / 2, zb + Db / 2), open_side="+z", shelves_y=(kick_h - wt / 2 - H_body / 2,)
+        )
+    )
     if countertop:  # four short feet under the base (the kick zone is the base under the door)
         fx, fz = W / 2 - 0.04, Db / 2 - 0.04
-        body.append(boxes(np.array([[sx * fx, 0.006, zb + Db / 2 + sz * fz] for sx in (-1, 1) for sz in (-1, 1)]), [0.03, 0.012, 0.03]))
-        body.append(boxes([[0.0, 0.012 + (kick_h - 0.012) / 2, zf + Td / 2]], [[W - 0.004, kick_h - 0.012, Td]]))  # base front under the door
+        body.append(
+            boxes(np.array([[sx * fx, 0.006, zb + Db / 2 + sz * fz] for sx in (-1, 1) for sz in (-1, 1)]), [0.03, 0.012, 0.03])
+        )
+        body.append(
+            boxes([[0.0, 0.012 + (kick_h - 0.012) / 2, zf + Td / 2]], [[W - 0.004, kick_h - 0.012, Td]])
+        )  # base front under the door
     else:
         body.append(boxes([[0.0, kick_h / 2, zf + Td - kick_recess - 0.005]], [[W - 0.004, kick_h - 0.004, 0.01]]))  # kick plate
     if has_top:  # worktop lid over the body and the door
@@ -183,12 +195,20 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     H_door = H_body - 0.002 if has_top else H
     Hd = H_door - kick_h
     gap = 0.0015
-    door = [extrude(rounded_rect(W - 0.002, Hd - 0.002, 0.008, 3, center=(0.0, kick_h + Hd / 2)), Td, plane="xy", offset=zf + gap + Td / 2)]
+    door = [
+        extrude(
+            rounded_rect(W - 0.002, Hd - 0.002, 0.008, 3, center=(0.0, kick_h + Hd / 2)), Td, plane="xy", offset=zf + gap + Td / 2
+        )
+    ]
     zfront = zf + gap + Td
     if integrated:  # controls on the top edge of the door, a plain furniture front with a bar handle or none
         bx = np.linspace(-0.30 * W, 0.05 * W, n_buttons)
-        door.append(boxes(np.c_[bx, np.full(n_buttons, H_door - 0.001 + 0.0015), np.full(n_buttons, zf + gap + 0.6 * Td)],
-                          np.tile([0.014, 0.003, 0.010], (n_buttons, 1))))
+        door.append(
+            boxes(
+                np.c_[bx, np.full(n_buttons, H_door - 0.001 + 0.0015), np.full(n_buttons, zf + gap + 0.6 * Td)],
+                np.tile([0.014, 0.003, 0.010], (n_buttons, 1)),
+            )
+        )
         door.append(boxes([[0.25 * W, H_door - 0.001 + 0.001, zf + gap + 0.6 * Td]], [[0.07, 0.002, 0.012]]))  # display
         y_panel = H_door - panel_h / 2
         handle_type = 0 if handle_type == 0 else 2  # 2: none (push to open)
@@ -196,8 +216,12 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
         y_panel = H_door - 0.001 - panel_h / 2
         door.append(boxes([[0.0, y_panel, zfront + panel_proud / 2]], [[W - 0.01, panel_h - 0.004, panel_proud]]))
         bx = np.linspace(-0.35 * W, 0.10 * W, n_buttons)
-        door.append(boxes(np.c_[bx, np.full(n_buttons, y_panel), np.full(n_buttons, zfront + panel_proud + 0.0015)],
-                          np.tile([0.016, 0.012, 0.003], (n_buttons, 1))))
+        door.append(
+            boxes(
+                np.c_[bx, np.full(n_buttons, y_panel), np.full(n_buttons, zfront + panel_proud + 0.0015)],
+                np.tile([0.016, 0.012, 0.003], (n_buttons, 1)),
+            )
+        )
         door.append(boxes([[0.25 * W, y_panel, zfront + panel_proud + 0.001]], [[0.09, 0.03, 0.002]]))  # display
     if handle_type == 0:
         yh = H_door - panel_h - rng.uniform(0.03, 0.06)
@@ -205,7 +229,9 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
         ang = np.linspace(0.0, 0.5 * np.pi, 6)
         x_arc = handle_len / 2 - r_c + r_c * np.sin(ang)
         z_arc = zfront + handle_off - r_c + r_c * np.cos(ang)
-        xs = np.concatenate([[-handle_len / 2], -x_arc[::-1][:-1], np.linspace(-x_arc[0], x_arc[0], 5), x_arc[1:], [handle_len / 2]])
+        xs = np.concatenate(
+            [[-handle_len / 2], -x_arc[::-1][:-1], np.linspace(-x_arc[0], x_arc[0], 5), x_arc[1:], [handle_len / 2]]
+        )
         zs = np.concatenate([[zfront - 0.002], z_arc[::-1][:-1], np.full(5, zfront + handle_off), z_arc[1:], [zfront - 0.002]])
         path = np.stack([xs, np.full(len(xs), yh), zs], -1)
         door.append(sweep_planar(path, (0, 1, 0), handle_r, handle_r, sections=10))
@@ -223,19 +249,40 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     body_part, T_body = make_part("body", body_mesh)
     door_part, T_door = make_part("door", door_mesh)
     params = dict(
-        width=W, height=H, depth=D, door_thickness=Td, wall_thickness=wt, kick_height=kick_h,
-        kick_recess=kick_recess, panel_height=panel_h, panel_proud=panel_proud, handle_type=handle_type,
-        handle_length=handle_len, handle_radius=handle_r, handle_offset=handle_off, n_buttons=n_buttons,
-        rack_rod_radius=rack_rod, lower_rack_height=lower_rack_h, upper_rack_height=upper_rack_h,
-        upper_rack_frac=upper_frac, spray_arm_angle_lower=float(arm_angles[0]),
-        spray_arm_angle_upper=float(arm_angles[1]), worktop=has_top, worktop_thickness=top_t if has_top else 0.0,
-        worktop_overhang=top_ov if has_top else 0.0, racks=n_racks,
+        width=W,
+        height=H,
+        depth=D,
+        door_thickness=Td,
+        wall_thickness=wt,
+        kick_height=kick_h,
+        kick_recess=kick_recess,
+        panel_height=panel_h,
+        panel_proud=panel_proud,
+        handle_type=handle_type,
+        handle_length=handle_len,
+        handle_radius=handle_r,
+        handle_offset=handle_off,
+        n_buttons=n_buttons,
+        rack_rod_radius=rack_rod,
+        lower_rack_height=lower_rack_h,
+        upper_rack_height=upper_rack_h,
+        upper_rack_frac=upper_frac,
+        spray_arm_angle_lower=float(arm_angles[0]),
+        spray_arm_angle_upper=float(arm_angles[1]),
+        worktop=has_top,
+        worktop_thickness=top_t if has_top else 0.0,
+        worktop_overhang=top_ov if has_top else 0.0,
+        racks=n_racks,
     )
     return build_object(
-        "dishwasher", instance_id, [(body_part, T_body), (door_part, T_door)],
-        joints=[dict(type="revolute", parent=0, child=1, pivot=(0.0, kick_h, zfront), axis=(1.0, 0.0, 0.0),
-                     limits=LIMITS, rest=REST)],
-        params=params, shape_family=family,
+        "dishwasher",
+        instance_id,
+        [(body_part, T_body), (door_part, T_door)],
+        joints=[
+            dict(type="revolute", parent=0, child=1, pivot=(0.0, kick_h, zfront), axis=(1.0, 0.0, 0.0), limits=LIMITS, rest=REST)
+        ],
+        params=params,
+        shape_family=family,
     )
 
 

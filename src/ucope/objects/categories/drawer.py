@@ -58,21 +58,71 @@ FAMILIES = (
 # overhang (0: no top board), front thickness; the handle and front styles it draws from; the probability of
 # graduated slots
 RANGES = {
-    "tabletop": dict(width=(0.25, 0.42), height=(0.20, 0.38), depth=(0.25, 0.40), wall=(0.006, 0.012), plinth=(0.0, 0.0),
-                     top=(0.0, 0.0), overhang=(0.0, 0.0), front=(0.006, 0.012), handles=("knob", "lip", "recessed"),
-                     fronts=("partial", "full", "inset"), p_graduated=0.3),
-    "nightstand": dict(width=(0.38, 0.60), height=(0.45, 0.80), depth=(0.35, 0.50), wall=(0.015, 0.022), plinth=(0.03, 0.10),
-                       top=(0.015, 0.030), overhang=(0.0, 0.025), front=(0.015, 0.022), handles=("bar", "knob", "lip", "recessed"),
-                       fronts=("partial", "full", "inset"), p_graduated=0.4),
-    "dresser": dict(width=(0.70, 1.80), height=(0.70, 1.05), depth=(0.40, 0.55), wall=(0.016, 0.024), plinth=(0.04, 0.12),
-                    top=(0.018, 0.035), overhang=(0.0, 0.030), front=(0.016, 0.024), handles=("bar", "knob", "lip"),
-                    fronts=("partial", "full", "inset"), p_graduated=0.5),
-    "filing": dict(width=(0.38, 0.50), height=(0.95, 1.35), depth=(0.55, 0.70), wall=(0.010, 0.016), plinth=(0.01, 0.03),
-                   top=(0.0, 0.0), overhang=(0.0, 0.0), front=(0.015, 0.025), handles=("cup", "recessed"), fronts=("full",),
-                   p_graduated=0.0),
-    "legged": dict(width=(0.80, 2.00), height=(0.60, 0.95), depth=(0.40, 0.50), wall=(0.016, 0.022), plinth=(0.15, 0.30),
-                   top=(0.018, 0.030), overhang=(0.0, 0.020), front=(0.016, 0.022), handles=("bar", "knob"),
-                   fronts=("partial", "full"), p_graduated=0.3),
+    "tabletop": dict(
+        width=(0.25, 0.42),
+        height=(0.20, 0.38),
+        depth=(0.25, 0.40),
+        wall=(0.006, 0.012),
+        plinth=(0.0, 0.0),
+        top=(0.0, 0.0),
+        overhang=(0.0, 0.0),
+        front=(0.006, 0.012),
+        handles=("knob", "lip", "recessed"),
+        fronts=("partial", "full", "inset"),
+        p_graduated=0.3,
+    ),
+    "nightstand": dict(
+        width=(0.38, 0.60),
+        height=(0.45, 0.80),
+        depth=(0.35, 0.50),
+        wall=(0.015, 0.022),
+        plinth=(0.03, 0.10),
+        top=(0.015, 0.030),
+        overhang=(0.0, 0.025),
+        front=(0.015, 0.022),
+        handles=("bar", "knob", "lip", "recessed"),
+        fronts=("partial", "full", "inset"),
+        p_graduated=0.4,
+    ),
+    "dresser": dict(
+        width=(0.70, 1.80),
+        height=(0.70, 1.05),
+        depth=(0.40, 0.55),
+        wall=(0.016, 0.024),
+        plinth=(0.04, 0.12),
+        top=(0.018, 0.035),
+        overhang=(0.0, 0.030),
+        front=(0.016, 0.024),
+        handles=("bar", "knob", "lip"),
+        fronts=("partial", "full", "inset"),
+        p_graduated=0.5,
+    ),
+    "filing": dict(
+        width=(0.38, 0.50),
+        height=(0.95, 1.35),
+        depth=(0.55, 0.70),
+        wall=(0.010, 0.016),
+        plinth=(0.01, 0.03),
+        top=(0.0, 0.0),
+        overhang=(0.0, 0.0),
+        front=(0.015, 0.025),
+        handles=("cup", "recessed"),
+        fronts=("full",),
+        p_graduated=0.0,
+    ),
+    "legged": dict(
+        width=(0.80, 2.00),
+        height=(0.60, 0.95),
+        depth=(0.40, 0.50),
+        wall=(0.016, 0.022),
+        plinth=(0.15, 0.30),
+        top=(0.018, 0.030),
+        overhang=(0.0, 0.020),
+        front=(0.016, 0.022),
+        handles=("bar", "knob"),
+        fronts=("partial", "full"),
+        p_graduated=0.3,
+    ),
 }
 
 
@@ -96,8 +146,13 @@ def _front_with_slot(pw: float, ph: float, yc: float, z_back: float, tf: float, 
     y0, y1 = yc - ph / 2, yc + ph / 2
     s0, s1 = y_slot - sh / 2, y_slot + sh / 2
     zc = z_back + tf / 2
-    c = [[0.0, 0.5 * (y0 + s0), zc], [0.0, 0.5 * (s1 + y1), zc], [-(pw + sw) / 4, y_slot, zc], [(pw + sw) / 4, y_slot, zc],
-         [0.0, y_slot, z_back + 0.25 * tf]]
+    c = [
+        [0.0, 0.5 * (y0 + s0), zc],
+        [0.0, 0.5 * (s1 + y1), zc],
+        [-(pw + sw) / 4, y_slot, zc],
+        [(pw + sw) / 4, y_slot, zc],
+        [0.0, y_slot, z_back + 0.25 * tf],
+    ]
     e = [[pw, s0 - y0, tf], [pw, y1 - s1, tf], [(pw - sw) / 2, sh, tf], [(pw - sw) / 2, sh, tf], [sw, sh, 0.5 * tf]]
     return [boxes(np.array(c), np.array(e))]
 
@@ -148,8 +203,15 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "nightstand"
             for sz in (-1, 1):
                 top = np.array([sx * (W / 2 - leg_in), plinth_h + 0.5 * wt, sz * (D / 2 - leg_in)])
                 foot = top + np.array([sx * 0.15 * plinth_h, -plinth_h - 0.5 * wt, sz * 0.1 * plinth_h])
-                cab.append(sweep_planar(np.stack([top, foot]), (sz, 0.0, -sx), np.array([leg_r, 0.5 * leg_r]),
-                                        np.array([leg_r, 0.5 * leg_r]), sections=10))
+                cab.append(
+                    sweep_planar(
+                        np.stack([top, foot]),
+                        (sz, 0.0, -sx),
+                        np.array([leg_r, 0.5 * leg_r]),
+                        np.array([leg_r, 0.5 * leg_r]),
+                        sections=10,
+                    )
+                )
     elif plinth_h > 0.0:
         cab.append(boxes([[0.0, plinth_h / 2, -plinth_in / 2]], [[W - 2 * plinth_in, plinth_h, D - plinth_in]]))
     if has_top:
@@ -200,24 +262,61 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "nightstand"
                 geo += _knob(x, yh, z0, 2.2 * handle_r, handle_off)
         elif handle == "lip":
             ylip = yc + ph / 2 - 0.006
-            geo.append(boxes([[0.0, ylip, z0 + 0.008], [0.0, ylip - 0.008, z0 + 0.0145]],
-                             [[handle_w * pw, 0.012, 0.016], [handle_w * pw, 0.022, 0.003]]))
+            geo.append(
+                boxes(
+                    [[0.0, ylip, z0 + 0.008], [0.0, ylip - 0.008, z0 + 0.0145]],
+                    [[handle_w * pw, 0.012, 0.016], [handle_w * pw, 0.022, 0.003]],
+                )
+            )
         elif handle == "cup":  # a label holder above a cup pull (a shallow curved shell as a box frame)
             cw = min(0.12, 0.4 * pw)
-            geo.append(boxes([[0.0, yh + 0.035, z0 + 0.001], [0.0, yh, z0 + 0.006], [0.0, yh - 0.012, z0 + 0.011]],
-                             [[0.08, 0.03, 0.002], [cw, 0.006, 0.012], [cw, 0.025, 0.004]]))
+            geo.append(
+                boxes(
+                    [[0.0, yh + 0.035, z0 + 0.001], [0.0, yh, z0 + 0.006], [0.0, yh - 0.012, z0 + 0.011]],
+                    [[0.08, 0.03, 0.002], [cw, 0.006, 0.012], [cw, 0.025, 0.004]],
+                )
+            )
         parts.append(make_part(name, combine(geo)))
-        joints.append(dict(type="prismatic", parent=0, child=k + 1, pivot=(0.0, yc, zf), axis=(0.0, 0.0, 1.0),
-                           limits=(0.0, 0.75 * bd), rest=0.0))
+        joints.append(
+            dict(
+                type="prismatic",
+                parent=0,
+                child=k + 1,
+                pivot=(0.0, yc, zf),
+                axis=(0.0, 0.0, 1.0),
+                limits=(0.0, 0.75 * bd),
+                rest=0.0,
+            )
+        )
 
     cabinet = make_part("cabinet", cab_mesh)
     params = dict(
-        width=W, height=H, depth=D, wall_thickness=wt, plinth_height=plinth_h if not legged else 0.0, leg_height=plinth_h if legged else 0.0,
-        plinth_inset=plinth_in, top_thickness=top_t, top_overhang=top_ov, front_thickness=tf, side_clearance=clr, top_clearance=top_clr,
-        drawer_wall=dwt, back_clearance=back_clr, handle_type=HANDLES.index(handle), front_style=FRONTS.index(front_style),
-        handle_width_frac=handle_w, handle_radius=handle_r, handle_offset=handle_off, handle_height_frac=handle_y, two_handles=two_handles,
-        graduation=graduation, full_overlay_overhang=full_ov if front_style == "full" else 0.0, slot_height_top=float(hs_all[2]),
-        slot_height_bottom=float(hs_all[0]), drawer_depth=bd,
+        width=W,
+        height=H,
+        depth=D,
+        wall_thickness=wt,
+        plinth_height=plinth_h if not legged else 0.0,
+        leg_height=plinth_h if legged else 0.0,
+        plinth_inset=plinth_in,
+        top_thickness=top_t,
+        top_overhang=top_ov,
+        front_thickness=tf,
+        side_clearance=clr,
+        top_clearance=top_clr,
+        drawer_wall=dwt,
+        back_clearance=back_clr,
+        handle_type=HANDLES.index(handle),
+        front_style=FRONTS.index(front_style),
+        handle_width_frac=handle_w,
+        handle_radius=handle_r,
+        handle_offset=handle_off,
+        handle_height_frac=handle_y,
+        two_handles=two_handles,
+        graduation=graduation,
+        full_overlay_overhang=full_ov if front_style == "full" else 0.0,
+        slot_height_top=float(hs_all[2]),
+        slot_height_bottom=float(hs_all[0]),
+        drawer_depth=bd,
     )
     return build_object("drawer", instance_id, [cabinet] + parts, joints=joints, params=params, shape_family=family)
 
@@ -232,5 +331,7 @@ SPEC = CategorySpec(
     elevation_range_deg=(10.0, 55.0),
     shape_families=FAMILIES,
     build=build,
-    description="drawer: cabinet with three drawers on prismatic slides (tabletop units to dressers, filing cabinets, sideboards)",
+    description=(
+        "drawer: cabinet with three drawers on prismatic slides " "(tabletop units to dressers, filing cabinets, sideboards)"
+    ),
 )

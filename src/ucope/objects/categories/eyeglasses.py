@@ -74,20 +74,74 @@ FAMILIES = (
 # per family: (lo, hi) of lens width, lens height / width, superellipse exponent, bridge, rim half-width and
 # half-depth, temple length and width, end piece height; "trapezoid", "teardrop": the lens outline's deformation
 RANGES = {
-    "rectangular": dict(lens_w=(0.048, 0.058), h_ratio=(0.55, 0.75), p=(3.0, 4.5), bridge=(0.015, 0.021), rim_w=(0.0008, 0.0025),
-                        rim_d=(0.0008, 0.0020), temple=(0.135, 0.150), temple_w=(0.0010, 0.0022), end_h=(0.0030, 0.0060)),
-    "round": dict(lens_w=(0.042, 0.052), h_ratio=(0.85, 1.00), p=(2.0, 2.4), bridge=(0.018, 0.024), rim_w=(0.0006, 0.0012),
-                  rim_d=(0.0007, 0.0012), temple=(0.135, 0.150), temple_w=(0.0009, 0.0014), end_h=(0.0025, 0.0040)),
-    "wayfarer": dict(lens_w=(0.048, 0.056), h_ratio=(0.70, 0.85), p=(2.6, 3.6), bridge=(0.016, 0.022), rim_w=(0.0025, 0.0045),
-                     rim_d=(0.0022, 0.0032), temple=(0.140, 0.150), temple_w=(0.0025, 0.0038), end_h=(0.0070, 0.0100),
-                     trapezoid=(0.08, 0.18)),
-    "browline": dict(lens_w=(0.048, 0.055), h_ratio=(0.70, 0.82), p=(2.5, 3.5), bridge=(0.016, 0.021), rim_w=(0.0025, 0.0040),
-                     rim_d=(0.0020, 0.0030), temple=(0.135, 0.150), temple_w=(0.0012, 0.0022), end_h=(0.0050, 0.0080)),
-    "kids": dict(lens_w=(0.038, 0.046), h_ratio=(0.70, 0.90), p=(2.2, 3.2), bridge=(0.012, 0.016), rim_w=(0.0012, 0.0025),
-                 rim_d=(0.0010, 0.0020), temple=(0.115, 0.130), temple_w=(0.0012, 0.0022), end_h=(0.0035, 0.0060)),
-    "aviator": dict(lens_w=(0.055, 0.062), h_ratio=(0.80, 0.90), p=(2.0, 2.6), bridge=(0.016, 0.020), rim_w=(0.0007, 0.0012),
-                    rim_d=(0.0007, 0.0012), temple=(0.135, 0.150), temple_w=(0.0009, 0.0014), end_h=(0.0025, 0.0040),
-                    teardrop=(0.30, 0.55)),
+    "rectangular": dict(
+        lens_w=(0.048, 0.058),
+        h_ratio=(0.55, 0.75),
+        p=(3.0, 4.5),
+        bridge=(0.015, 0.021),
+        rim_w=(0.0008, 0.0025),
+        rim_d=(0.0008, 0.0020),
+        temple=(0.135, 0.150),
+        temple_w=(0.0010, 0.0022),
+        end_h=(0.0030, 0.0060),
+    ),
+    "round": dict(
+        lens_w=(0.042, 0.052),
+        h_ratio=(0.85, 1.00),
+        p=(2.0, 2.4),
+        bridge=(0.018, 0.024),
+        rim_w=(0.0006, 0.0012),
+        rim_d=(0.0007, 0.0012),
+        temple=(0.135, 0.150),
+        temple_w=(0.0009, 0.0014),
+        end_h=(0.0025, 0.0040),
+    ),
+    "wayfarer": dict(
+        lens_w=(0.048, 0.056),
+        h_ratio=(0.70, 0.85),
+        p=(2.6, 3.6),
+        bridge=(0.016, 0.022),
+        rim_w=(0.0025, 0.0045),
+        rim_d=(0.0022, 0.0032),
+        temple=(0.140, 0.150),
+        temple_w=(0.0025, 0.0038),
+        end_h=(0.0070, 0.0100),
+        trapezoid=(0.08, 0.18),
+    ),
+    "browline": dict(
+        lens_w=(0.048, 0.055),
+        h_ratio=(0.70, 0.82),
+        p=(2.5, 3.5),
+        bridge=(0.016, 0.021),
+        rim_w=(0.0025, 0.0040),
+        rim_d=(0.0020, 0.0030),
+        temple=(0.135, 0.150),
+        temple_w=(0.0012, 0.0022),
+        end_h=(0.0050, 0.0080),
+    ),
+    "kids": dict(
+        lens_w=(0.038, 0.046),
+        h_ratio=(0.70, 0.90),
+        p=(2.2, 3.2),
+        bridge=(0.012, 0.016),
+        rim_w=(0.0012, 0.0025),
+        rim_d=(0.0010, 0.0020),
+        temple=(0.115, 0.130),
+        temple_w=(0.0012, 0.0022),
+        end_h=(0.0035, 0.0060),
+    ),
+    "aviator": dict(
+        lens_w=(0.055, 0.062),
+        h_ratio=(0.80, 0.90),
+        p=(2.0, 2.6),
+        bridge=(0.016, 0.020),
+        rim_w=(0.0007, 0.0012),
+        rim_d=(0.0007, 0.0012),
+        temple=(0.135, 0.150),
+        temple_w=(0.0009, 0.0014),
+        end_h=(0.0025, 0.0040),
+        teardrop=(0.30, 0.55),
+    ),
 }
 
 
@@ -154,7 +208,9 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "rectangular
         path = np.c_[curve, np.zeros(len(curve))]
         if family == "browline":  # thick brow bar over the top, a thin wire (the nylon thread) below
             k = np.clip((rim_right[:, 1] / (b + rw) - brow_cut) / 0.25, 0.0, 1.0)
-            frame_parts.append(sweep_planar(path, (0, 0, 1), 0.0005 + (rd - 0.0005) * k, 0.0005 + (rw - 0.0005) * k, sections=8, closed=True))
+            frame_parts.append(
+                sweep_planar(path, (0, 0, 1), 0.0005 + (rd - 0.0005) * k, 0.0005 + (rw - 0.0005) * k, sections=8, closed=True)
+            )
         else:
             frame_parts.append(sweep_planar(path, (0, 0, 1), rd, rw, sections=8, closed=True))
         lens = (lens_right @ rot + np.array([xc, 0.0])) * mirror
@@ -219,11 +275,30 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "rectangular
     left, T_left = make_part("left_temple", temples[-1])
     right, T_right = make_part("right_temple", temples[1])
     params = dict(
-        total_width=Wt, lens_width=Lw, lens_height=Lh, lens_shape_exponent=p_shape, lens_tilt_rad=float(tilt),
-        bridge_width=bridge, rim_half_width=rw, rim_half_depth=rd, lens_thickness=lens_t, bridge_height_frac=bridge_u,
-        bridge_arch=arch, bridge_radius=bridge_r, double_bridge=double_bridge, end_piece_height_frac=end_u,
-        hinge_depth=end_depth, end_piece_height=eh, end_piece_width=ew, temple_length=L, bend_fraction=bend_frac,
-        bend_deg=bend_deg, temple_width=tw, nose_pad_radius=pad_r, trapezoid=trapezoid, teardrop=teardrop,
+        total_width=Wt,
+        lens_width=Lw,
+        lens_height=Lh,
+        lens_shape_exponent=p_shape,
+        lens_tilt_rad=float(tilt),
+        bridge_width=bridge,
+        rim_half_width=rw,
+        rim_half_depth=rd,
+        lens_thickness=lens_t,
+        bridge_height_frac=bridge_u,
+        bridge_arch=arch,
+        bridge_radius=bridge_r,
+        double_bridge=double_bridge,
+        end_piece_height_frac=end_u,
+        hinge_depth=end_depth,
+        end_piece_height=eh,
+        end_piece_width=ew,
+        temple_length=L,
+        bend_fraction=bend_frac,
+        bend_deg=bend_deg,
+        temple_width=tw,
+        nose_pad_radius=pad_r,
+        trapezoid=trapezoid,
+        teardrop=teardrop,
         brow_cut=brow_cut if family == "browline" else 0.0,
     )
     joints = [
@@ -231,7 +306,11 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "rectangular
         dict(type="revolute", parent=0, child=2, pivot=pivots[1], axis=(0.0, 1.0, 0.0), limits=LIMITS, rest=REST),
     ]
     return build_object(
-        "eyeglasses", instance_id, [(frame, T_frame), (left, T_left), (right, T_right)], joints=joints, params=params,
+        "eyeglasses",
+        instance_id,
+        [(frame, T_frame), (left, T_left), (right, T_right)],
+        joints=joints,
+        params=params,
         shape_family=family,
     )
 

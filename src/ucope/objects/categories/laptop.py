@@ -50,16 +50,46 @@ FAMILIES = (
 
 # per family: (lo, hi) of width W, depth / W, base thickness (at the hinge), lid thickness, corner radius, bezel (m)
 RANGES = {
-    "ultrabook": dict(width=(0.280, 0.360), depth_ratio=(0.66, 0.72), base=(0.008, 0.014), lid=(0.0035, 0.006), corner=(0.006, 0.014),
-                      bezel=(0.004, 0.008)),
-    "mainstream": dict(width=(0.270, 0.380), depth_ratio=(0.64, 0.72), base=(0.016, 0.024), lid=(0.005, 0.009), corner=(0.004, 0.012),
-                       bezel=(0.006, 0.014)),
-    "gaming": dict(width=(0.350, 0.410), depth_ratio=(0.68, 0.78), base=(0.022, 0.034), lid=(0.007, 0.012), corner=(0.003, 0.010),
-                   bezel=(0.006, 0.014)),
-    "rugged": dict(width=(0.280, 0.350), depth_ratio=(0.72, 0.90), base=(0.030, 0.045), lid=(0.014, 0.028), corner=(0.015, 0.030),
-                   bezel=(0.015, 0.030)),
-    "wedge": dict(width=(0.280, 0.340), depth_ratio=(0.66, 0.72), base=(0.013, 0.018), lid=(0.004, 0.006), corner=(0.006, 0.012),
-                  bezel=(0.005, 0.010)),
+    "ultrabook": dict(
+        width=(0.280, 0.360),
+        depth_ratio=(0.66, 0.72),
+        base=(0.008, 0.014),
+        lid=(0.0035, 0.006),
+        corner=(0.006, 0.014),
+        bezel=(0.004, 0.008),
+    ),
+    "mainstream": dict(
+        width=(0.270, 0.380),
+        depth_ratio=(0.64, 0.72),
+        base=(0.016, 0.024),
+        lid=(0.005, 0.009),
+        corner=(0.004, 0.012),
+        bezel=(0.006, 0.014),
+    ),
+    "gaming": dict(
+        width=(0.350, 0.410),
+        depth_ratio=(0.68, 0.78),
+        base=(0.022, 0.034),
+        lid=(0.007, 0.012),
+        corner=(0.003, 0.010),
+        bezel=(0.006, 0.014),
+    ),
+    "rugged": dict(
+        width=(0.280, 0.350),
+        depth_ratio=(0.72, 0.90),
+        base=(0.030, 0.045),
+        lid=(0.014, 0.028),
+        corner=(0.015, 0.030),
+        bezel=(0.015, 0.030),
+    ),
+    "wedge": dict(
+        width=(0.280, 0.340),
+        depth_ratio=(0.66, 0.72),
+        base=(0.013, 0.018),
+        lid=(0.004, 0.006),
+        corner=(0.006, 0.012),
+        bezel=(0.005, 0.010),
+    ),
 }
 WEDGE_FRONT = (0.003, 0.006)
 """Thickness of a wedge base at its front edge (feet excluded), metres."""
@@ -74,8 +104,15 @@ def draw_dimensions(rng: np.random.Generator, family: str) -> dict:
     D = W * float(rng.uniform(*rg["depth_ratio"]))
     T = float(rng.uniform(*rg["base"]))
     front = float(rng.uniform(*WEDGE_FRONT))
-    return dict(width=W, depth=D, base=T, front=front if family == "wedge" else T, lid=float(rng.uniform(*rg["lid"])),
-                corner=float(rng.uniform(*rg["corner"])), bezel=float(rng.uniform(*rg["bezel"])))
+    return dict(
+        width=W,
+        depth=D,
+        base=T,
+        front=front if family == "wedge" else T,
+        lid=float(rng.uniform(*rg["lid"])),
+        corner=float(rng.uniform(*rg["corner"])),
+        bezel=float(rng.uniform(*rg["bezel"])),
+    )
 
 
 def build(rng: np.random.Generator, instance_id: str, family: str = "mainstream") -> ArticulatedObject:
@@ -150,7 +187,9 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "mainstream"
     fz = D / 2 - max(corner, 0.012) - 0.006
     # rubber feet (under a wedge, the front ones are taller: they reach up to the sloping bottom)
     foot_top = lambda z: foot_h + (y_front - foot_h) * (z + D / 2) / D + 0.0003 if wedge else foot_h  # noqa: E731
-    feet = [disc(0.005, foot_top(sz * fz), (sx * fx, foot_top(sz * fz) / 2, sz * fz), "y", 12) for sx in (-1, 1) for sz in (-1, 1)]
+    feet = [
+        disc(0.005, foot_top(sz * fz), (sx * fx, foot_top(sz * fz) / 2, sz * fz), "y", 12) for sx in (-1, 1) for sz in (-1, 1)
+    ]
     parts_base.extend(feet)
     base_mesh = combine(parts_base)
 
@@ -170,16 +209,36 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "mainstream"
     base, T_base = make_part("base", base_mesh)
     lid, T_lid = make_part("lid", lid_mesh)
     params = dict(
-        width=W, depth=D, base_thickness=T, base_front_thickness=dims["front"], lid_thickness=t_lid, corner_radius=corner, foot_height=foot_h,
-        closed_gap=gap, key_well_depth=well, keyboard_width=kb_w, keyboard_depth=kb_d, keyboard_back_margin=kb_back,
-        key_columns=n_cols, key_rows=n_rows, key_gap_fraction=key_gap, touchpad_width=tp_w, touchpad_depth=tp_d,
-        bezel=bezel, bezel_top=bezel_top, logo_radius=logo_r,
+        width=W,
+        depth=D,
+        base_thickness=T,
+        base_front_thickness=dims["front"],
+        lid_thickness=t_lid,
+        corner_radius=corner,
+        foot_height=foot_h,
+        closed_gap=gap,
+        key_well_depth=well,
+        keyboard_width=kb_w,
+        keyboard_depth=kb_d,
+        keyboard_back_margin=kb_back,
+        key_columns=n_cols,
+        key_rows=n_rows,
+        key_gap_fraction=key_gap,
+        touchpad_width=tp_w,
+        touchpad_depth=tp_d,
+        bezel=bezel,
+        bezel_top=bezel_top,
+        logo_radius=logo_r,
     )
     return build_object(
-        "laptop", instance_id, [(base, T_base), (lid, T_lid)],
-        joints=[dict(type="revolute", parent=0, child=1, pivot=(0.0, T, -D / 2), axis=(-1.0, 0.0, 0.0),
-                     limits=LIMITS, rest=REST)],
-        params=params, shape_family=family,
+        "laptop",
+        instance_id,
+        [(base, T_base), (lid, T_lid)],
+        joints=[
+            dict(type="revolute", parent=0, child=1, pivot=(0.0, T, -D / 2), axis=(-1.0, 0.0, 0.0), limits=LIMITS, rest=REST)
+        ],
+        params=params,
+        shape_family=family,
     )
 
 

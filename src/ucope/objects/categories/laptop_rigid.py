@@ -49,7 +49,9 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "mainstream"
         y_front = tb - dims["front"]
         meshes = [extrude(np.array([[0.0, -Dp / 2], [y_front, Dp / 2], [tb, Dp / 2], [tb, -Dp / 2]]), W, plane="yz")]
         fz = Dp / 2 - 0.02
-        meshes.append(boxes(np.array([[sx * (W / 2 - 0.03), y_front / 2 + 0.0005, fz] for sx in (-1, 1)]), [0.012, y_front + 0.001, 0.01]))
+        meshes.append(
+            boxes(np.array([[sx * (W / 2 - 0.03), y_front / 2 + 0.0005, fz] for sx in (-1, 1)]), [0.012, y_front + 0.001, 0.01])
+        )
     else:
         meshes = [rounded_slab((W, tb, Dp), corner, axis="y", center=(0.0, tb / 2, 0.0))]
 
@@ -84,29 +86,51 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "mainstream"
     bt = 0.0006
     zc0, zc1 = -e, lid_len - e
     sx = W - 2 * bez_side
-    lid.append(boxes(
-        np.array([
-            [0.0, -tl / 2 - bt / 2, zc0 + bez_chin / 2],
-            [0.0, -tl / 2 - bt / 2, zc1 - bez_top / 2],
-            [-W / 2 + bez_side / 2 + 0.0005, -tl / 2 - bt / 2, (zc0 + zc1) / 2],
-            [W / 2 - bez_side / 2 - 0.0005, -tl / 2 - bt / 2, (zc0 + zc1) / 2],
-        ]),
-        np.array([
-            [sx, bt, bez_chin],
-            [sx, bt, bez_top],
-            [bez_side - 0.001, bt, lid_len - 2 * corner],
-            [bez_side - 0.001, bt, lid_len - 2 * corner],
-        ]),
-    ))
+    lid.append(
+        boxes(
+            np.array(
+                [
+                    [0.0, -tl / 2 - bt / 2, zc0 + bez_chin / 2],
+                    [0.0, -tl / 2 - bt / 2, zc1 - bez_top / 2],
+                    [-W / 2 + bez_side / 2 + 0.0005, -tl / 2 - bt / 2, (zc0 + zc1) / 2],
+                    [W / 2 - bez_side / 2 - 0.0005, -tl / 2 - bt / 2, (zc0 + zc1) / 2],
+                ]
+            ),
+            np.array(
+                [
+                    [sx, bt, bez_chin],
+                    [sx, bt, bez_top],
+                    [bez_side - 0.001, bt, lid_len - 2 * corner],
+                    [bez_side - 0.001, bt, lid_len - 2 * corner],
+                ]
+            ),
+        )
+    )
     th = np.deg2rad(theta_deg)
     R = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(th), np.sin(th)], [0.0, -np.sin(th), np.cos(th)]])  # about x by -theta
     meshes += [transformed(m, R, pivot) for m in lid]
 
     params = dict(
-        width=W, depth=Dp, base_thickness=tb, base_front_thickness=dims["front"], lid_thickness=tl, lid_length=lid_len, opening_deg=theta_deg,
-        corner_radius=corner, keyboard_width=kb_w, keyboard_depth=kb_d, keyboard_back=kb_back, n_cols=n_cols,
-        n_rows=n_rows, key_height=key_h, key_fill=key_fill, touchpad_width=tp_w, touchpad_depth=tp_dd,
-        bezel_side=bez_side, bezel_top=bez_top, bezel_chin=bez_chin,
+        width=W,
+        depth=Dp,
+        base_thickness=tb,
+        base_front_thickness=dims["front"],
+        lid_thickness=tl,
+        lid_length=lid_len,
+        opening_deg=theta_deg,
+        corner_radius=corner,
+        keyboard_width=kb_w,
+        keyboard_depth=kb_d,
+        keyboard_back=kb_back,
+        n_cols=n_cols,
+        n_rows=n_rows,
+        key_height=key_h,
+        key_fill=key_fill,
+        touchpad_width=tp_w,
+        touchpad_depth=tp_dd,
+        bezel_side=bez_side,
+        bezel_top=bez_top,
+        bezel_chin=bez_chin,
     )
     return rigid_object("laptop_rigid", instance_id, meshes, "none", params, family)
 

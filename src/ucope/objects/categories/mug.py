@@ -51,18 +51,60 @@ FAMILIES = (
 
 # per family: (lo, hi) of height H, diameter D, top/bottom radius ratio, wall curve exponent, belly, wall, handle reach
 RANGES = {
-    "straight": dict(height=(0.085, 0.120), diameter=(0.072, 0.092), ratio=(0.94, 1.06), curve=(1.0, 1.0), belly=(0.0, 0.0),
-                     wall=(0.003, 0.006), reach=(0.024, 0.040)),
-    "conical": dict(height=(0.075, 0.120), diameter=(0.075, 0.100), ratio=(1.15, 1.45), curve=(0.8, 1.2), belly=(0.0, 0.0),
-                    wall=(0.003, 0.006), reach=(0.022, 0.038)),
-    "espresso": dict(height=(0.050, 0.068), diameter=(0.055, 0.072), ratio=(0.95, 1.20), curve=(0.5, 1.0), belly=(0.0, 0.0),
-                     wall=(0.003, 0.005), reach=(0.014, 0.024)),
-    "cappuccino": dict(height=(0.060, 0.080), diameter=(0.085, 0.105), ratio=(1.15, 1.40), curve=(0.35, 0.6), belly=(0.0, 0.0),
-                       wall=(0.003, 0.005), reach=(0.018, 0.030)),
-    "tall": dict(height=(0.120, 0.150), diameter=(0.075, 0.095), ratio=(0.95, 1.12), curve=(1.0, 1.0), belly=(0.0, 0.0),
-                 wall=(0.003, 0.006), reach=(0.026, 0.042)),
-    "barrel": dict(height=(0.085, 0.125), diameter=(0.080, 0.100), ratio=(0.95, 1.05), curve=(1.0, 1.0), belly=(0.08, 0.18),
-                   wall=(0.003, 0.006), reach=(0.024, 0.040)),
+    "straight": dict(
+        height=(0.085, 0.120),
+        diameter=(0.072, 0.092),
+        ratio=(0.94, 1.06),
+        curve=(1.0, 1.0),
+        belly=(0.0, 0.0),
+        wall=(0.003, 0.006),
+        reach=(0.024, 0.040),
+    ),
+    "conical": dict(
+        height=(0.075, 0.120),
+        diameter=(0.075, 0.100),
+        ratio=(1.15, 1.45),
+        curve=(0.8, 1.2),
+        belly=(0.0, 0.0),
+        wall=(0.003, 0.006),
+        reach=(0.022, 0.038),
+    ),
+    "espresso": dict(
+        height=(0.050, 0.068),
+        diameter=(0.055, 0.072),
+        ratio=(0.95, 1.20),
+        curve=(0.5, 1.0),
+        belly=(0.0, 0.0),
+        wall=(0.003, 0.005),
+        reach=(0.014, 0.024),
+    ),
+    "cappuccino": dict(
+        height=(0.060, 0.080),
+        diameter=(0.085, 0.105),
+        ratio=(1.15, 1.40),
+        curve=(0.35, 0.6),
+        belly=(0.0, 0.0),
+        wall=(0.003, 0.005),
+        reach=(0.018, 0.030),
+    ),
+    "tall": dict(
+        height=(0.120, 0.150),
+        diameter=(0.075, 0.095),
+        ratio=(0.95, 1.12),
+        curve=(1.0, 1.0),
+        belly=(0.0, 0.0),
+        wall=(0.003, 0.006),
+        reach=(0.026, 0.042),
+    ),
+    "barrel": dict(
+        height=(0.085, 0.125),
+        diameter=(0.080, 0.100),
+        ratio=(0.95, 1.05),
+        curve=(1.0, 1.0),
+        belly=(0.08, 0.18),
+        wall=(0.003, 0.006),
+        reach=(0.024, 0.040),
+    ),
 }
 
 
@@ -133,9 +175,22 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "straight") 
     handle = sweep_planar(np.c_[path, np.zeros(len(path))], (0.0, 0.0, 1.0), hw, ht, sections=12)
 
     params = dict(
-        radius=R, height=H, wall=t, bottom=t_bottom, top_bottom_ratio=ratio, wall_curve=curve, belly=belly, heel=heel,
-        recess=recess, handle_reach=reach, handle_top=h_top, handle_bottom=h_bot, handle_squareness=squareness,
-        handle_ear=ear, handle_half_width=hw, handle_half_thickness=ht,
+        radius=R,
+        height=H,
+        wall=t,
+        bottom=t_bottom,
+        top_bottom_ratio=ratio,
+        wall_curve=curve,
+        belly=belly,
+        heel=heel,
+        recess=recess,
+        handle_reach=reach,
+        handle_top=h_top,
+        handle_bottom=h_bot,
+        handle_squareness=squareness,
+        handle_ear=ear,
+        handle_half_width=hw,
+        handle_half_thickness=ht,
     )
     return rigid_object("mug", instance_id, [cup, handle], "none", params, family)
 

@@ -45,7 +45,9 @@ REST = 0.0
 GAP = 0.00005  # half the clearance between the two blades (they slide on each other)
 
 
-def _blade_poly(length: float, hw_spine: float, hw_edge: float, p_spine: float, blunt: float, heel: float, side: int) -> np.ndarray:
+def _blade_poly(
+    length: float, hw_spine: float, hw_edge: float, p_spine: float, blunt: float, heel: float, side: int
+) -> np.ndarray:
     """Convex outline (x, z) of a blade pointing to -z; the spine is on ``side`` (+1: +x), the edge opposite."""
     u = np.linspace(0.0, 1.0 - blunt, 14)
     z = -u * length
@@ -57,8 +59,18 @@ def _blade_poly(length: float, hw_spine: float, hw_edge: float, p_spine: float, 
     return np.concatenate([spine, edge, heel_pts])
 
 
-def _blade(length: float, hw_spine: float, hw_edge: float, p_spine: float, blunt: float, heel: float, side: int,
-           bend: float, thickness: float, yc: float) -> list:
+def _blade(
+    length: float,
+    hw_spine: float,
+    hw_edge: float,
+    p_spine: float,
+    blunt: float,
+    heel: float,
+    side: int,
+    bend: float,
+    thickness: float,
+    yc: float,
+) -> list:
     """The blade as extruded convex pieces (thickness along y, centred on ``yc``). Straight: one convex
     polygon (:func:`_blade_poly`). Curved (``bend > 0``): the part in front of the pivot is bent towards +x
     (``x += bend * length * u^2``, u the fraction of the blade length) and cut into convex strips."""
@@ -105,21 +117,81 @@ FAMILIES = (
 # and thickness, loop half-length (fraction of the handle length), finger / thumb loop length ratio, loop
 # half-width (m), finger / thumb loop width ratio
 RANGES = {
-    "office": dict(total=(0.17, 0.22), blade=(0.45, 0.56), thick=(0.0015, 0.0025), hw=(0.07, 0.11), edge=(0.35, 0.65), blunt=(0.0, 0.05),
-                   curve=(0.0, 0.0), band_w=(0.004, 0.008), band_t=(0.004, 0.008), loop_len=(0.18, 0.27), len_ratio=(1.0, 1.3),
-                   loop_w=(0.010, 0.014), w_ratio=(1.0, 1.4)),
-    "kitchen": dict(total=(0.20, 0.25), blade=(0.42, 0.52), thick=(0.0022, 0.0032), hw=(0.10, 0.14), edge=(0.45, 0.7), blunt=(0.0, 0.04),
-                    curve=(0.0, 0.0), band_w=(0.006, 0.009), band_t=(0.006, 0.009), loop_len=(0.20, 0.28), len_ratio=(1.3, 1.7),
-                    loop_w=(0.011, 0.014), w_ratio=(1.2, 1.6)),
-    "craft": dict(total=(0.12, 0.16), blade=(0.40, 0.50), thick=(0.0012, 0.0020), hw=(0.08, 0.12), edge=(0.4, 0.7), blunt=(0.05, 0.12),
-                  curve=(0.0, 0.0), band_w=(0.004, 0.007), band_t=(0.004, 0.007), loop_len=(0.22, 0.30), len_ratio=(1.0, 1.1),
-                  loop_w=(0.009, 0.012), w_ratio=(1.0, 1.1)),
-    "nail": dict(total=(0.085, 0.105), blade=(0.28, 0.36), thick=(0.0012, 0.0018), hw=(0.07, 0.10), edge=(0.4, 0.6), blunt=(0.0, 0.03),
-                 curve=(0.06, 0.14), band_w=(0.0022, 0.0032), band_t=(0.0022, 0.0032), loop_len=(0.13, 0.17), len_ratio=(1.0, 1.05),
-                 loop_w=(0.0075, 0.009), w_ratio=(1.0, 1.05)),
-    "hairdressing": dict(total=(0.14, 0.19), blade=(0.45, 0.55), thick=(0.0018, 0.0026), hw=(0.05, 0.07), edge=(0.5, 0.8),
-                         blunt=(0.0, 0.02), curve=(0.0, 0.0), band_w=(0.0028, 0.004), band_t=(0.003, 0.0045), loop_len=(0.12, 0.16),
-                         len_ratio=(1.0, 1.1), loop_w=(0.009, 0.011), w_ratio=(1.0, 1.1)),
+    "office": dict(
+        total=(0.17, 0.22),
+        blade=(0.45, 0.56),
+        thick=(0.0015, 0.0025),
+        hw=(0.07, 0.11),
+        edge=(0.35, 0.65),
+        blunt=(0.0, 0.05),
+        curve=(0.0, 0.0),
+        band_w=(0.004, 0.008),
+        band_t=(0.004, 0.008),
+        loop_len=(0.18, 0.27),
+        len_ratio=(1.0, 1.3),
+        loop_w=(0.010, 0.014),
+        w_ratio=(1.0, 1.4),
+    ),
+    "kitchen": dict(
+        total=(0.20, 0.25),
+        blade=(0.42, 0.52),
+        thick=(0.0022, 0.0032),
+        hw=(0.10, 0.14),
+        edge=(0.45, 0.7),
+        blunt=(0.0, 0.04),
+        curve=(0.0, 0.0),
+        band_w=(0.006, 0.009),
+        band_t=(0.006, 0.009),
+        loop_len=(0.20, 0.28),
+        len_ratio=(1.3, 1.7),
+        loop_w=(0.011, 0.014),
+        w_ratio=(1.2, 1.6),
+    ),
+    "craft": dict(
+        total=(0.12, 0.16),
+        blade=(0.40, 0.50),
+        thick=(0.0012, 0.0020),
+        hw=(0.08, 0.12),
+        edge=(0.4, 0.7),
+        blunt=(0.05, 0.12),
+        curve=(0.0, 0.0),
+        band_w=(0.004, 0.007),
+        band_t=(0.004, 0.007),
+        loop_len=(0.22, 0.30),
+        len_ratio=(1.0, 1.1),
+        loop_w=(0.009, 0.012),
+        w_ratio=(1.0, 1.1),
+    ),
+    "nail": dict(
+        total=(0.085, 0.105),
+        blade=(0.28, 0.36),
+        thick=(0.0012, 0.0018),
+        hw=(0.07, 0.10),
+        edge=(0.4, 0.6),
+        blunt=(0.0, 0.03),
+        curve=(0.06, 0.14),
+        band_w=(0.0022, 0.0032),
+        band_t=(0.0022, 0.0032),
+        loop_len=(0.13, 0.17),
+        len_ratio=(1.0, 1.05),
+        loop_w=(0.0075, 0.009),
+        w_ratio=(1.0, 1.05),
+    ),
+    "hairdressing": dict(
+        total=(0.14, 0.19),
+        blade=(0.45, 0.55),
+        thick=(0.0018, 0.0026),
+        hw=(0.05, 0.07),
+        edge=(0.5, 0.8),
+        blunt=(0.0, 0.02),
+        curve=(0.0, 0.0),
+        band_w=(0.0028, 0.004),
+        band_t=(0.003, 0.0045),
+        loop_len=(0.12, 0.16),
+        len_ratio=(1.0, 1.1),
+        loop_w=(0.009, 0.011),
+        w_ratio=(1.0, 1.1),
+    ),
 }
 
 
@@ -177,17 +249,34 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "office") ->
         parts[name] = make_part(name, combine(geo))
 
     params = dict(
-        total_length=total, blade_length=Lb, thickness_a=ta, thickness_b=tb, blade_half_width=hw,
-        edge_half_width=hw_e, spine_exponent=p_spine, tip_blunt=blunt, hub_radius=r_hub, loop_band_width=loop_w,
-        loop_band_thickness=loop_t, loop_gap=sep, loop_a_half_length=lb_a, loop_b_half_length=lb_b,
-        loop_a_half_width=la_a, loop_b_half_width=la_b, loop_a_tilt=tilt_a, loop_b_tilt=tilt_b, shank_half_width=sw,
+        total_length=total,
+        blade_length=Lb,
+        thickness_a=ta,
+        thickness_b=tb,
+        blade_half_width=hw,
+        edge_half_width=hw_e,
+        spine_exponent=p_spine,
+        tip_blunt=blunt,
+        hub_radius=r_hub,
+        loop_band_width=loop_w,
+        loop_band_thickness=loop_t,
+        loop_gap=sep,
+        loop_a_half_length=lb_a,
+        loop_b_half_length=lb_b,
+        loop_a_half_width=la_a,
+        loop_b_half_width=la_b,
+        loop_a_tilt=tilt_a,
+        loop_b_tilt=tilt_b,
+        shank_half_width=sw,
         blade_curve=bend,
     )
     return build_object(
-        "scissors", instance_id, [parts["blade_a"], parts["blade_b"]],
-        joints=[dict(type="revolute", parent=0, child=1, pivot=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0),
-                     limits=LIMITS, rest=REST)],
-        params=params, shape_family=family,
+        "scissors",
+        instance_id,
+        [parts["blade_a"], parts["blade_b"]],
+        joints=[dict(type="revolute", parent=0, child=1, pivot=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0), limits=LIMITS, rest=REST)],
+        params=params,
+        shape_family=family,
     )
 
 
