@@ -158,7 +158,7 @@ def write_outputs(args: argparse.Namespace, jobs: list[Job], frame: dict | None 
 
 def read_rgb(path: str, shape: tuple[int, int] | None) -> np.ndarray:
     """An RGB image ``(H, W, 3)`` uint8 of the depth's size ``shape``."""
-    from ..data.readers._common import read_image
+    from ..data.readers.common import read_image
 
     img = read_image(path, "RGB image")
     if img.ndim == 2:

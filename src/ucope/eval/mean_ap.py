@@ -43,11 +43,11 @@ from ..geometry.boxes import box_corners
 from .metrics import (
     IOU_METHOD,
     NOCS_SYMMETRIC_CLASSES,
-    _metric_name_pose,
-    _scalar,
-    _size,
-    _transform,
     box_iou,
+    check_scalar,
+    check_size,
+    check_transform,
+    pose_metric_name,
     rotation_error_deg,
 )
 
@@ -102,11 +102,11 @@ def _check_object(obj, where: str, is_pred: bool) -> dict:
         raise InputError(f"{where}['class'] must be a class name (str), got {obj['class']!r}")
     out = {
         "class": obj["class"],
-        "T": _transform(obj["cam_from_object"], f"{where}['cam_from_object']"),
-        "size": _size(obj["size_m"], f"{where}['size_m']"),
+        "T": check_transform(obj["cam_from_object"], f"{where}['cam_from_object']"),
+        "size": check_size(obj["size_m"], f"{where}['size_m']"),
     }
     if is_pred:
-        out["score"] = _scalar(obj["score"], f"{where}['score']")
+        out["score"] = check_scalar(obj["score"], f"{where}['score']")
     else:
         hv = obj.get("handle_visible", True)
         if not isinstance(hv, bool | np.bool_):
@@ -181,10 +181,10 @@ def nocs_reference_iou(cam_from_pred, size_pred, cam_from_gt, size_gt, symmetric
     Raises:
         InputError: on a malformed pose or size (the message names the argument).
     """
-    Tp = _transform(cam_from_pred, "cam_from_pred")
-    sp = _size(size_pred, "size_pred")
-    Tg = _transform(cam_from_gt, "cam_from_gt")
-    sg = _size(size_gt, "size_gt")
+    Tp = check_transform(cam_from_pred, "cam_from_pred")
+    sp = check_size(size_pred, "size_pred")
+    Tg = check_transform(cam_from_gt, "cam_from_gt")
+    sg = check_size(size_gt, "size_gt")
     turns = NOCS_SYMMETRY_TURNS if symmetric else 1
     best = 0.0
     for i in range(turns):
@@ -500,23 +500,23 @@ def _check_protocol(protocol) -> str:
     return protocol
 
 
-def _metric_name_iou(thr: float) -> str:
+def iou_metric_name(thr: float) -> str:
     return f"3D{round(thr * 100):d}"
 
 
 def _check_thresholds(iou_thresholds, pose_thresholds_deg_cm) -> tuple[list[float], list[tuple[float, float]], list[str]]:
-    iou_thr = [_scalar(t, "iou_thresholds") for t in iou_thresholds]
+    iou_thr = [check_scalar(t, "iou_thresholds") for t in iou_thresholds]
     if any(not 0.0 < t <= 1.0 for t in iou_thr):
         raise InputError(f"iou_thresholds must lie in (0, 1], got {iou_thr}")
     pose_thr = []
     for pair in pose_thresholds_deg_cm:
         if np.shape(pair) != (2,):
             raise InputError(f"pose_thresholds_deg_cm must hold (degrees, cm) pairs, got {pair!r}")
-        deg, cm = _scalar(pair[0], "pose threshold (deg)"), _scalar(pair[1], "pose threshold (cm)")
+        deg, cm = check_scalar(pair[0], "pose threshold (deg)"), check_scalar(pair[1], "pose threshold (cm)")
         if deg < 0 or cm < 0:
             raise InputError(f"pose thresholds must be non-negative, got {pair!r}")
         pose_thr.append((deg, cm))
-    names = [_metric_name_iou(t) for t in iou_thr] + [_metric_name_pose(d, c) for d, c in pose_thr]
+    names = [iou_metric_name(t) for t in iou_thr] + [pose_metric_name(d, c) for d, c in pose_thr]
     if len(set(names)) != len(names):
         raise InputError(f"duplicate thresholds give duplicate metric names: {names}")
     return iou_thr, pose_thr, names
@@ -696,7 +696,7 @@ def compute_map(
     if pose_iou_gate is not None:
         if protocol == "nocs":
             raise InputError("pose_iou_gate applies to protocol='exact' only; the NOCS protocol gates at IoU > 0.1")
-        gate = _scalar(pose_iou_gate, "pose_iou_gate")
+        gate = check_scalar(pose_iou_gate, "pose_iou_gate")
         if not 0.0 < gate <= 1.0:
             raise InputError(f"pose_iou_gate must be None or lie in (0, 1], got {gate}")
     if isinstance(symmetric_classes, str):

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.boxes import box_iou_3d, box_iou_3d_symmetric_y
+from ..vocab import JointType
 
 __all__ = [
     "SYMMETRIES",
@@ -68,7 +69,7 @@ IOU_METHOD = (
 
 # A matrix is accepted as a rotation if |R^T R - I| and |det R - 1| are below this (float32 input is fine).
 _ROT_TOL = 1e-5
-_JOINT_TYPE_NAMES = {0: "revolute", 1: "prismatic", 2: "fixed"}
+_JOINT_TYPE_NAMES = {int(t): t.label for t in JointType}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -96,7 +97,7 @@ def _rotation(R, name: str) -> np.ndarray:
     return R
 
 
-def _transform(T, name: str) -> np.ndarray:
+def check_transform(T, name: str) -> np.ndarray:
     T = _array(T, name, (4, 4))
     if np.max(np.abs(T[3] - np.array([0.0, 0.0, 0.0, 1.0]))) > _ROT_TOL:
         raise InputError(f"{name} must be a rigid transform: its last row must be [0, 0, 0, 1]")
@@ -104,7 +105,7 @@ def _transform(T, name: str) -> np.ndarray:
     return T
 
 
-def _size(s, name: str) -> np.ndarray:
+def check_size(s, name: str) -> np.ndarray:
     s = _array(s, name, (3,))
     if np.any(s <= 0.0):
         raise InputError(f"{name} must be strictly positive box extents in metres, got {s.tolist()}")
@@ -119,7 +120,7 @@ def _unit(v, name: str) -> np.ndarray:
     return v / n
 
 
-def _scalar(x, name: str) -> float:
+def check_scalar(x, name: str) -> float:
     if isinstance(x, bool | np.bool_):
         raise InputError(f"{name} must be a finite number, got {x!r}")
     try:
@@ -205,7 +206,7 @@ def normalized_translation_error(t_pred, t_gt, size_gt) -> float:
     Returns:
         ``|t_pred - t_gt| / |size_gt|`` as a Python ``float``.
     """
-    size = _size(size_gt, "size_gt")
+    size = check_size(size_gt, "size_gt")
     return translation_error_m(t_pred, t_gt) / float(np.linalg.norm(size))
 
 
@@ -232,10 +233,10 @@ def box_iou(cam_from_part_pred, size_pred, cam_from_part_gt, size_gt, symmetry: 
     Raises:
         InputError: on bad poses or sizes (the message names the argument) or an unknown symmetry.
     """
-    Tp = _transform(cam_from_part_pred, "cam_from_part_pred")
-    sp = _size(size_pred, "size_pred")
-    Tg = _transform(cam_from_part_gt, "cam_from_part_gt")
-    sg = _size(size_gt, "size_gt")
+    Tp = check_transform(cam_from_part_pred, "cam_from_part_pred")
+    sp = check_size(size_pred, "size_pred")
+    Tg = check_transform(cam_from_part_gt, "cam_from_part_gt")
+    sg = check_size(size_gt, "size_gt")
     if _symmetry(symmetry) == "y":
         return float(box_iou_3d_symmetric_y(Tg, sg, Tp, sp, num_angles=num_angles))
     return float(box_iou_3d(Tg, sg, Tp, sp))
@@ -251,8 +252,8 @@ def part_errors(cam_from_part_pred, size_pred, cam_from_part_gt, size_gt, symmet
         error in degrees (:func:`rotation_error_deg`), centre distance in metres, the same divided by
         the ground-truth box diagonal, and the exact 3D IoU in ``[0, 1]``.
     """
-    Tp = _transform(cam_from_part_pred, "cam_from_part_pred")
-    Tg = _transform(cam_from_part_gt, "cam_from_part_gt")
+    Tp = check_transform(cam_from_part_pred, "cam_from_part_pred")
+    Tg = check_transform(cam_from_part_gt, "cam_from_part_gt")
     return {
         "rotation_deg": rotation_error_deg(Tp[:3, :3], Tg[:3, :3], symmetry),
         "translation_m": translation_error_m(Tp[:3, 3], Tg[:3, 3]),
@@ -305,7 +306,7 @@ def line_distance_m(p1, u1, p2, u2, parallel_tol_rad: float = 1e-6) -> float:
     d = p2 - p1
     n = np.cross(u1, u2)
     sin = float(np.linalg.norm(n))
-    if sin < math.sin(_scalar(parallel_tol_rad, "parallel_tol_rad")):
+    if sin < math.sin(check_scalar(parallel_tol_rad, "parallel_tol_rad")):
         return float(np.linalg.norm(np.cross(d, u1)))
     return float(abs(np.dot(d, n)) / sin)
 
@@ -322,8 +323,8 @@ def state_error(pred, gt, joint_type) -> float:
         are the same configuration). Prismatic: ``|pred - gt|`` in metres.
         Both states are taken about their own axes; the caller must express them with the same axis sign.
     """
-    p = _scalar(pred, "pred")
-    g = _scalar(gt, "gt")
+    p = check_scalar(pred, "pred")
+    g = check_scalar(gt, "gt")
     if _joint_type(joint_type) == "prismatic":
         return abs(p - g)
     d = math.remainder(p - g, 2.0 * math.pi)  # in [-pi, pi]
@@ -363,7 +364,7 @@ def joint_errors(axis_pred, pivot_pred, state_pred, axis_gt, pivot_gt, state_gt,
     out = {"joint_type": jt, "axis_deg": axis_angle_error_deg(axis_pred, axis_gt), "pivot_m": None}
     if jt == "revolute":
         out["pivot_m"] = line_distance_m(pivot_pred, axis_pred, pivot_gt, axis_gt)
-    state = _scalar(state_pred, "state_pred")
+    state = check_scalar(state_pred, "state_pred")
     out["state_error"] = state_error(-state if flipped else state, state_gt, jt)
     out["state_unit"] = "deg" if jt == "revolute" else "m"
     out["axis_flipped"] = flipped
@@ -442,7 +443,7 @@ def segmentation_accuracy(pred_labels, gt_labels) -> float:
 # --------------------------------------------------------------------------------------------------
 
 
-def _metric_name_pose(deg: float, cm: float) -> str:
+def pose_metric_name(deg: float, cm: float) -> str:
     return f"{round(deg, 6):g}deg{round(cm, 6):g}cm"
 
 
@@ -479,7 +480,7 @@ def _check_table(samples, name: str) -> int:
 def _value(d, key: str, where: str):
     if d is None or d.get(key) is None:
         return None
-    return _scalar(d[key], f"{where}['{key}']")
+    return check_scalar(d[key], f"{where}['{key}']")
 
 
 def summarize_parts(
@@ -524,8 +525,8 @@ def summarize_parts(
     for pair in pose_thresholds_deg_m:
         if np.shape(pair) != (2,):
             raise InputError(f"pose_thresholds_deg_m must hold (degrees, metres) pairs, got {pair!r}")
-        deg, m = _scalar(pair[0], "pose threshold (deg)"), _scalar(pair[1], "pose threshold (m)")
-        name = _metric_name_pose(deg, 100.0 * m)
+        deg, m = check_scalar(pair[0], "pose threshold (deg)"), check_scalar(pair[1], "pose threshold (m)")
+        name = pose_metric_name(deg, 100.0 * m)
         fraction[name] = [
             sum(
                 1
@@ -536,7 +537,7 @@ def summarize_parts(
             for j in range(k)
         ]
     for t in iou_thresholds:
-        t = _scalar(t, "iou threshold")
+        t = check_scalar(t, "iou threshold")
         fraction[f"iou{round(t * 100):d}"] = [sum(1 for v in cols["iou"][j] if v is not None and v >= t) / n for j in range(k)]
     out["fraction"] = fraction
     return out

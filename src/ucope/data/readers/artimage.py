@@ -51,7 +51,7 @@ import numpy as np
 
 from ...errors import DataError
 from ...fileio import read_json
-from ._common import read_depth, read_label_image, sample_from_pixels
+from .common import read_depth, read_label_image, sample_from_pixels
 
 __all__ = ["read_artimage", "read_open3d_intrinsics", "decompose_similarity", "polygon_mask"]
 

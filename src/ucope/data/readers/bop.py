@@ -31,7 +31,7 @@ import numpy as np
 
 from ...errors import DataError
 from ...fileio import read_json
-from ._common import read_depth, read_label_image, sample_from_pixels
+from .common import read_depth, read_label_image, sample_from_pixels
 
 __all__ = ["bop_scenes", "read_models_info", "read_bop"]
 

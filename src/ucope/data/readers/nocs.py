@@ -36,7 +36,7 @@ import numpy as np
 
 from ...errors import DataError, InputError
 from ...geometry.similarity import robust_umeyama
-from ._common import read_image, read_label_image, sample_from_pixels
+from .common import read_image, read_label_image, sample_from_pixels
 
 __all__ = [
     "NOCS_CLASSES",
