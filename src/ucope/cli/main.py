@@ -232,6 +232,7 @@ def _estimator(args: argparse.Namespace):
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,
+        rescale=not args.no_rescale,
     )
 
 
@@ -426,6 +427,11 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         default=None,
         help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
         "eyeglasses, drawer, dishwasher and scissors models have it on)",
+    )
+    p.add_argument(
+        "--no-rescale",
+        action="store_true",
+        help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",
     )
     p.add_argument(
         "--no-score-filter",

@@ -39,8 +39,9 @@ from ..geometry.sampling import random_subset
 from ..objects.articulation import ArticulatedObject
 from ..render.camera import PinholeCamera
 from ..render.views import RenderedView
+from ..vocab import JointType
 
-__all__ = ["SAMPLE_ARRAY_FIELDS", "BACKGROUND_FIELDS", "sample_from_view", "check_sample", "background_fields"]
+__all__ = ["SAMPLE_ARRAY_FIELDS", "BACKGROUND_FIELDS", "sample_from_view", "check_sample", "background_fields", "scale_sample"]
 
 BACKGROUND_FIELDS = ("bg_points", "bg_rank", "bg_clutter")
 """The optional per-sample background pool (see the module table)."""
@@ -149,3 +150,45 @@ def check_sample(sample: dict) -> None:
     for k, shape in want.items():
         if np.shape(sample.get(k)) != shape:
             raise InputError(f"sample field {k!r} has shape {np.shape(sample.get(k))}, expected {shape}")
+
+
+def scale_sample(sample: dict, factor: float, centre=None) -> dict:
+    """The sample of the same view of the object scaled uniformly by ``factor`` about ``centre``.
+
+    ``centre`` ``(3,)`` camera frame, metres; default: the mean of the parts' box centres. Points, the
+    background pool, part and object translations and joint pivots move to ``centre + factor * (x -
+    centre)``; sizes and prismatic states are multiplied by ``factor``; rotations, normals, joint axes,
+    revolute states and labels are kept. (The perspective is the original's: this is the object grown in
+    place, not a new rendering.) Returns a new dict; ``sample`` is not changed.
+
+    Raises:
+        InputError: a ``factor`` that is not a positive finite number, or a ``centre`` not of shape (3,).
+    """
+    f = float(factor) if isinstance(factor, int | float | np.floating | np.integer) else float("nan")
+    if not np.isfinite(f) or f <= 0.0:
+        raise InputError(f"scale factor must be a positive finite number, got {factor!r}")
+    T = np.asarray(sample["cam_from_part"], np.float64)
+    c = T[:, :3, 3].mean(axis=0) if centre is None else np.asarray(centre, np.float64)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise InputError(f"centre must be a finite (3,) point, got shape {np.shape(centre)}")
+
+    def move(x, dtype=np.float64):
+        return (c + f * (np.asarray(x, np.float64) - c)).astype(dtype)
+
+    out = dict(sample)
+    out["points"] = move(sample["points"], np.float32)
+    Tn = T.copy()
+    Tn[:, :3, 3] = move(T[:, :3, 3])
+    out["cam_from_part"] = Tn
+    out["size_m"] = np.asarray(sample["size_m"], np.float64) * f
+    To = np.array(sample["cam_from_object"], np.float64)
+    To[:3, 3] = move(To[:3, 3])
+    out["cam_from_object"] = To
+    jt = np.asarray(sample["joint_type"])
+    if len(jt):
+        out["joint_pivot"] = move(sample["joint_pivot"])
+        state = np.array(sample["joint_state"], np.float64)
+        out["joint_state"] = np.where(jt == int(JointType.PRISMATIC), f * state, state)
+    if "bg_points" in sample:
+        out["bg_points"] = move(sample["bg_points"], np.float32)
+    return out

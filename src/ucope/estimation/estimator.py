@@ -99,6 +99,11 @@ class Estimator:
         calibration: the model's score calibration (:class:`ucope.estimation.confidence.Calibration`;
             :meth:`load` reads it from the model file): part scores become success probabilities and
             an object below its threshold gets a warning. ``None``: scores are the raw vote scores.
+        rescale: bring a cloud whose size (:func:`ucope.priors.cloud_radius`) lies outside the range the
+            model was trained on (``priors.radius_range_m``) to the middle of that range, scaling it
+            about its median point, estimate there, and scale the poses, sizes, pivots and prismatic
+            states back (:meth:`predict`). Clouds inside the range are untouched. On by default; measured
+            in docs/results.md (objects at 0.5-2x the training sizes).
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -120,6 +125,7 @@ class Estimator:
         segment_pairs: bool | None = None,
         options: VotingOptions | None = None,
         calibration: Calibration | None = None,
+        rescale: bool = True,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -148,6 +154,7 @@ class Estimator:
         if calibration is not None and len(calibration.part_bias) != self.cfg.num_parts:
             raise InputError(f"the calibration is for {len(calibration.part_bias)} parts, the model has {self.cfg.num_parts}")
         self.calibration = calibration
+        self.rescale = bool(rescale)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
@@ -196,6 +203,13 @@ class Estimator:
         prep = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False, units=units)
         pts, nrm, raw, finite = prep.points, prep.normals, prep.raw, prep.finite
         warnings = list(prep.warnings) + self._extent_warnings(pts, units)
+        scale, centre = self.input_scale(pts)
+        if scale != 1.0:
+            pts = (centre + scale * (pts - centre)).astype(np.float32)
+            warnings.append(
+                f"the cloud was scaled by {scale:.3g} into the {self.category} model's training sizes for the estimate; "
+                "its poses and sizes are scaled back"
+            )
         cfg = self.cfg
         rng = np.random.default_rng(np.random.SeedSequence(entropy=self.seed, spawn_key=(2,)))
         sub = random_subset(len(pts), cfg.num_points, rng)
@@ -255,6 +269,9 @@ class Estimator:
             v, labels, seg_prob, p_net, len(raw), [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
         )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
+        if scale != 1.0:
+            v = self._scale_back(v, scale, centre)
+            p_net = (centre + (p_net - centre) / scale).astype(np.float32)
         parts, joints = self._estimates(v, scores)
         for j in np.flatnonzero(v.get("joint_clamped", [])):
             warnings.append(
@@ -297,6 +314,40 @@ class Estimator:
             warnings=warnings,
             features=feats,
         )
+
+    def input_scale(self, points: np.ndarray) -> tuple[float, np.ndarray]:
+        """``(s, c)``: the factor :meth:`predict` scales ``points`` ``(N, 3)`` by about their median point
+        ``c`` ``(3,)`` (camera frame, metres): 1 unless ``rescale`` is on and the cloud's radius ``r``
+        (:func:`ucope.priors.cloud_radius`) lies outside the model's training range ``[lo, hi]``; then
+        ``sqrt(lo hi) / r``: the middle of the range, where sizes come out right (the nearer end of the range
+        keeps boxes about 1.1-1.4x off at half the training size: docs/results.md)."""
+        pts = np.asarray(points, np.float64)
+        centre = np.median(pts, axis=0)
+        rng = self.priors.radius_range_m
+        if not self.rescale or rng is None:
+            return 1.0, centre
+        r = cloud_radius(pts)
+        lo, hi = float(rng[0]), float(rng[1])
+        if r <= 0.0 or lo <= r <= hi:
+            return 1.0, centre
+        return float(np.sqrt(lo * hi) / r), centre
+
+    def _scale_back(self, v: dict, scale: float, centre: np.ndarray) -> dict:
+        """The estimate ``v`` made on the cloud scaled by ``scale`` about ``centre``, for the cloud itself:
+        translations and pivots move back towards ``centre``, sizes and prismatic states (displacements of
+        an object of another size: the zero offset scales with it) are divided by ``scale``, rotations,
+        axes and revolute states are kept."""
+        v = dict(v)
+        T = np.array(v["cam_from_part"], np.float64)
+        T[:, :3, 3] = centre + (T[:, :3, 3] - centre) / scale
+        S = np.asarray(v["size_m"], np.float64) / scale
+        v["cam_from_part"], v["size_m"] = T, S
+        if len(self.priors.joints):
+            v["joint_pivot"] = centre + (np.asarray(v["joint_pivot"], np.float64) - centre) / scale
+            prismatic = np.array([jp.type == JointType.PRISMATIC for jp in self.priors.joints])
+            state = np.where(prismatic, np.asarray(v["joint_state"], np.float64) / scale, v["joint_state"])
+            v["joint_state"] = state
+        return v
 
     def _extent_warnings(self, pts: np.ndarray, units: str) -> list[str]:
         """Refuse a cloud far outside the sizes the model was trained on; warn about one outside them."""
