@@ -37,7 +37,7 @@ from ucope.eval.evaluate import sample_errors
 from ucope.fileio import atomic_write_json
 
 MODELS = ("laptop", "eyeglasses", "dishwasher", "scissors", "drawer", "bottle", "bowl", "camera", "can", "laptop_rigid", "mug")
-FACTORS = (0.5, 0.7, 1.0, 1.4, 2.0)
+FACTORS = (0.5, 0.7, 1.0, 1.5, 2.0)
 ROT_DEG, TRANS_REL = 10.0, 0.10
 
 

@@ -550,6 +550,32 @@ def main() -> int:
         ]
         out += [f"![{c} training](images/training_{c}.png)" for c in curves] + [""]
 
+    # ------------------------------------------------------------------------------ other sizes
+    bs = args.bench / "results_scale.json"
+    if bs.is_file():
+        b = json.loads(bs.read_text())
+        st = b["settings"]
+        facs = [f"{f:g}" for f in st["factors"]]
+        out += [
+            "## Objects of other sizes",
+            "",
+            f"`python benchmarks/bench_scale.py`: {st['num']} unseen test views per model (seed {st['seed']}, "
+            f"{st['pairs']:,} pairs), each scaled about the object's centre by the factor (points, poses, sizes, "
+            "pivots, prismatic states); success = "
+            f"{b['success']}. Each cell: success % / median box size ratio (cube root of predicted over true "
+            "volume), first as the model sees the cloud (`--no-rescale`), then with the estimator's rescaling "
+            "into the training sizes (the default, `Estimator(rescale=True)`).",
+            "",
+            "| model | " + " | ".join(f"x{f} as is" for f in facs) + " | " + " | ".join(f"x{f} rescaled" for f in facs) + " |",
+            "|---|" + "---|" * (2 * len(facs)),
+        ]
+        for name, m in b["models"].items():
+            cells_ = [m["factors"][f][k] for k in ("as_is", "rescale") for f in facs]
+            out.append(
+                f"| {name} | " + " | ".join(f"{100 * c['success']:.0f} / {c['median_size_ratio']:.2f}" for c in cells_) + " |"
+            )
+        out.append("")
+
     # --------------------------------------------------------------------------------------- speed
     bp, bt = args.bench / "results_predict.json", args.bench / "results_train.json"
     if bp.is_file() or bt.is_file():

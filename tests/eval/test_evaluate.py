@@ -226,3 +226,38 @@ def test_cli_eval_writes_a_report_and_prints_the_table(tmp_path, capsys, head):
         main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.json")])
         == 2
     )
+
+
+def test_view_bins_follow_the_camera_yaw_about_the_object():
+    from ucope.eval.evaluate import view_bin, view_yaw_deg
+    from ucope.geometry.transforms import make_transform
+
+    for yaw in (0.0, 30.0, -60.0, 100.0, 170.0, -150.0):
+        a = np.radians(yaw)
+        eye = 0.8 * np.array([np.sin(a), 0.3, np.cos(a)])  # the camera centre in the object frame
+        # a camera looking at the object origin from eye (any orientation: the yaw uses its centre only)
+        R = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))[0]
+        R *= np.sign(np.linalg.det(R))
+        cam_from_object = make_transform(R, -R @ eye)
+        got = view_yaw_deg({"cam_from_object": cam_from_object})
+        assert abs((got - yaw + 180.0) % 360.0 - 180.0) < 1e-9
+        assert view_bin(got) == ("front" if abs(yaw) < 45 else "side" if abs(yaw) < 135 else "back")
+
+
+def test_a_report_splits_its_errors_by_view_bin():
+    from ucope.eval.evaluate import view_bin
+
+    class Skewed(Oracle):  # an error that differs between views: 1 degree per view index
+        def predict_sample(self, s):
+            self.R = Rotation.from_euler("z", float(s["index"]), degrees=True).as_matrix()
+            return super().predict_sample(s)
+
+    rep = evaluate(Skewed("laptop"), samples("laptop", 12), progress=False)
+    bins = rep["view_bins"]
+    assert sum(b["num_samples"] for b in bins.values()) == 12 and len(bins) >= 2
+    yaws = [s["view_yaw_deg"] for s in rep["samples"]]
+    for name, b in bins.items():
+        mine = [i for i, y in enumerate(yaws) if view_bin(y) == name]
+        assert b["num_samples"] == len(mine)
+        assert b["parts"]["rotation_deg"]["mean"][0] == pytest.approx(np.mean(mine), abs=1e-3)
+    assert "front views" in format_report(rep) or "side views" in format_report(rep)

@@ -14,8 +14,9 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
      "map": compute_map(...) | None,         # rigid (K = 1) categories: NOCS-style mAP, our exact protocol
      "map_nocs": compute_map(..., protocol="nocs") | None,   # the same under NOCS's reference protocol
      "map_records": [...] | None,            # their inputs (one GT, one prediction per view)
+     "view_bins": {"front" | "side" | "back": {"num_samples", "parts": summarize_parts(...)}},
      "iou_method": ..., "hardware": {...}, "ucope_version": ...,
-     "samples": [{"index", "instance_id", "parts": [part_errors], "joints": [joint_errors],
+     "samples": [{"index", "instance_id", "view_yaw_deg", "parts": [part_errors], "joints": [joint_errors],
                   "segmentation_iou": [K], "time_ms"}]}
 
 :func:`format_report` prints it as the paper's tables print (rotation in degrees, translation in
@@ -59,6 +60,9 @@ __all__ = [
     "nocs_class",
     "rigid_figures",
     "sample_errors",
+    "VIEW_BINS",
+    "view_bin",
+    "view_yaw_deg",
 ]
 
 EVAL_FORMAT = "ucope-eval/1"
@@ -90,6 +94,25 @@ def part_symmetry(category: str, symmetry: str, handle_visible: bool = True) -> 
     """The symmetry a rigid part is evaluated with: its own, or ``"y"`` for a mug whose handle is not
     visible (NOCS's rule, the same in the per-part errors as in the mAP)."""
     return "y" if nocs_class(category) == "mug" and not handle_visible else symmetry
+
+
+VIEW_BINS = {"front": (0.0, 45.0), "side": (45.0, 135.0), "back": (135.0, 180.0)}
+"""View bins by the camera's absolute yaw about the object's y axis (degrees; 0 = in front, on +z)."""
+
+
+def view_yaw_deg(sample: Mapping) -> float:
+    """The camera's azimuth about the object's y axis, degrees in ``(-180, 180]``: 0 when the camera sits
+    in front of the object (on its +z side, docs/conventions.md), +-180 behind it; from the sample's
+    ``cam_from_object`` (the camera centre in the object frame)."""
+    T = np.asarray(sample["cam_from_object"], np.float64)
+    eye = -T[:3, :3].T @ T[:3, 3]
+    return float(np.degrees(np.arctan2(eye[0], eye[2])))
+
+
+def view_bin(yaw_deg: float) -> str:
+    """``"front"``, ``"side"`` or ``"back"`` (:data:`VIEW_BINS`) of a yaw from :func:`view_yaw_deg`."""
+    a = abs(float(yaw_deg))
+    return "front" if a < 45.0 else "side" if a < 135.0 else "back"
 
 
 def sample_errors(result, sample: Mapping) -> dict:
@@ -241,11 +264,13 @@ def evaluate(
             bar = tqdm(total=n, desc=f"eval {cfg.category}", unit="sample", dynamic_ncols=True)
         except ImportError:  # pragma: no cover - tqdm is an optional extra
             bar = None
-    results, records, kept = [], [], []
+    results, records, kept, bins = [], [], [], []
     for i in range(n):
         s = samples[i]
         r = estimator.predict_sample(s)
         e = sample_errors(r, s)
+        yaw = view_yaw_deg(s)
+        bins.append(view_bin(yaw))
         records.append(e)
         results.append(r)
         if cfg.num_parts == 1:
@@ -255,6 +280,7 @@ def evaluate(
         if keep_samples:
             e["index"] = int(s.get("index", i))
             e["instance_id"] = str(s.get("instance_id", ""))
+            e["view_yaw_deg"] = round(yaw, 3)
             e["time_ms"] = {k: round(float(v), 3) for k, v in r.timings_ms.items()}
     if bar is not None:
         bar.close()
@@ -281,6 +307,7 @@ def evaluate(
             "refine": estimator.refine,
             "resolve_flips": getattr(estimator, "resolve_flips", False),
             "seed": estimator.seed,
+            "rescale": getattr(estimator, "rescale", False),
         },
         "data": dict(data_info or {}, num_samples=n),
         "parts": summarize_parts([e["parts"] for e in records]),
@@ -293,6 +320,14 @@ def evaluate(
         "map": compute_map(map_records) if rigid else None,
         "map_nocs": compute_map(map_records, protocol="nocs") if rigid else None,
         "map_records": map_records,
+        "view_bins": {
+            b: {
+                "num_samples": bins.count(b),
+                "parts": summarize_parts([records[i]["parts"] for i in np.flatnonzero(np.array(bins) == b)]),
+            }
+            for b in VIEW_BINS
+            if b in bins
+        },
         "iou_method": IOU_METHOD,
         "ucope_version": __version__,
         "hardware": {"platform": platform.platform(), "cpu_count": os.cpu_count(), "torch_threads": _threads()},
@@ -358,6 +393,11 @@ def format_report(report: Mapping) -> str:
     seg = report.get("segmentation")
     if seg:
         lines.append(f"  segmentation IoU (%)    {_cells(seg['iou'], '{:.1f}', 100.0)}; accuracy {100 * seg['accuracy']:.1f}%")
+    for b, vb in (report.get("view_bins") or {}).items():
+        lines.append(
+            f"  {b + ' views':12s} ({vb['num_samples']:3d}) rotation {_stat_cells(vb['parts']['rotation_deg'], '{:.1f}')}; "
+            f"10deg10cm {_cells(vb['parts']['fraction']['10deg10cm'], '{:.0f}', 100.0)} %"
+        )
     if report.get("map"):
         lines.append(format_map_table(report["map"], indent="  "))
     if report.get("map_nocs"):
