@@ -83,15 +83,24 @@ class AugmentConfig:
                 raise InputError(f"augmentation {name} must be a range 0 <= lo <= hi, got {(lo, hi)}")
 
 
+MIN_DEPTH_M = 0.05
+"""Background points nearer the camera than this are left out of the pool (no depth sensor returns them;
+generator-2 pools hold a few at 1 mm, the noise model's quantisation floor, which further noise can push
+behind the camera)."""
+
+
 def sample_context(sample: dict) -> CorruptionContext:
     """The :class:`CorruptionContext` of a training sample: its true part boxes and, when the sample has
-    one, its background pool (stored thinned to the cloud's density: ``pixels_per_point = 1``)."""
+    one, its background pool (stored thinned to the cloud's density: ``pixels_per_point = 1``) without
+    points nearer than :data:`MIN_DEPTH_M`."""
     pool = None
     if "bg_points" in sample and len(sample["bg_points"]):
+        bg = np.asarray(sample["bg_points"], np.float64)
+        keep = bg[:, 2] >= MIN_DEPTH_M
         pool = BackgroundPool(
-            np.asarray(sample["bg_points"], np.float64),
-            np.asarray(sample["bg_rank"], np.float64),
-            np.asarray(sample["bg_clutter"], bool),
+            bg[keep],
+            np.asarray(sample["bg_rank"], np.float64)[keep],
+            np.asarray(sample["bg_clutter"], bool)[keep],
             1.0,
         )
     return CorruptionContext(
