@@ -227,6 +227,8 @@ def load_urdf(path: str | os.PathLike, search_path: Sequence[str | os.PathLike] 
     except Exception as e:
         raise InputError(f"cannot read URDF file {path} ({type(e).__name__}: {e})") from None
     robot = urdf.robot
+    if not robot.links:
+        raise InputError(f"URDF file {path} has no links")
     links: dict[str, list[trimesh.Trimesh]] = {}
     for link in robot.links:
         elements = link.visuals or link.collisions
@@ -511,6 +513,8 @@ def model_to_object(
     for jm in joints:
         if jm.joint not in model.joints:
             raise InputError(f"{where}: category joint {jm.joint!r} is not in the file; its joints: {sorted(model.joints)}")
+        if model.joints[jm.joint].type == "fixed":
+            raise InputError(f"{where}: category joint {jm.joint!r} is fixed; a category joint is revolute or prismatic")
     for name in held:
         if name not in model.joints:
             raise InputError(f"{where}: held joint {name!r} is not in the file; its joints: {sorted(model.joints)}")
@@ -523,8 +527,6 @@ def model_to_object(
         pj, cj = owner[j.parent], owner[j.child]
         if j.name in names:
             i = names.index(j.name)
-            if j.type == "fixed":
-                raise InputError(f"{where}: category joint {j.name!r} is fixed; a category joint is revolute or prismatic")
             if cj != i + 1:
                 raise InputError(
                     f"{where}: category joint {i} ({j.name!r}) must move part {i + 1} ({parts[i + 1][0]!r}), "
