@@ -29,6 +29,9 @@ def test_categories_spec_checks_and_draws(tmp_path, capsys):
     write_spec(spec, {**two_link_spec("two_link.urdf"), "joints": [{"joint": "hinge", "range": [0, 3]}]})
     assert main(["categories", "--spec", str(spec), "--no-picture"]) == 2
     assert "two_link.urdf: category joint 0 ('hinge'): sampled range [0, 3] rad is outside" in capsys.readouterr().err
+    # a bad spec stops generate before anything is written
+    assert main(["generate", "--spec", str(spec), "--num", "4", "--out", str(tmp_path / "data"), "--quiet"]) == 2
+    assert "sampled range [0, 3] rad is outside" in capsys.readouterr().err and not (tmp_path / "data").exists()
 
 
 def test_generate_train_predict_eval_on_a_spec_without_its_files(tmp_path, capsys):

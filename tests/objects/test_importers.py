@@ -100,6 +100,9 @@ def test_mjcf_gives_the_same_object_as_the_urdf(tmp_path):
     np.testing.assert_allclose(a.size_m, b.size_m, atol=1e-6)
     for q in (0.0, 0.7, 1.5):
         np.testing.assert_allclose(a.object_from_part([q]), b.object_from_part([q]), atol=1e-6)
+    # the empty world body joins the root part even when a later part takes the remaining bodies
+    c = model_to_object(mj, "t", "t/0", [("base", ["base"], "none"), ("lid", "*", "none")], HINGE, canonical_from_file=Z_UP)
+    np.testing.assert_allclose(c.size_m, b.size_m, atol=1e-12)
 
 
 @pytest.mark.parametrize(("joint", "word"), [("free", "free"), ("ball", "ball")])

@@ -462,14 +462,13 @@ def _partition(model: SourceModel, parts: Sequence[tuple[str, Sequence[str] | st
                 raise InputError(f"{where}: link {ln!r} is claimed by parts {parts[owner[ln]][0]!r} and {pname!r}")
             owner[ln] = k
     rest = [ln for ln in model.links if ln not in owner]
+    if model.root == "world" and "world" in rest and not model.links["world"]:
+        owner["world"] = 0  # MJCF's world body joins the root part when no part names it and it carries no geometry
+        rest.remove("world")
     if star is not None:
         owner.update({ln: star for ln in rest})
-    else:
-        # MJCF's world body joins the root part when no part names it and it carries no geometry
-        free = [ln for ln in rest if not (ln == model.root == "world" and not model.links[ln])]
-        if free:
-            raise InputError(f"{where}: links {free} belong to no part; name them in a part's links")
-        owner.update({ln: 0 for ln in rest})
+    elif rest:
+        raise InputError(f"{where}: links {rest} belong to no part; name them in a part's links")
     return owner
 
 
