@@ -259,3 +259,18 @@ def test_generated_samples_of_a_spec_are_identical_after_registering_again(regis
     assert meta["spec"] == registered.doc and meta["family"] == "own" and len(meta["structure"]["joints"]) == 1
     with pytest.raises(InputError, match=r"the spec describes category 'toy_box_reg', not 'other'"):
         GenerateConfig(category="other", spec=registered.doc).validate()
+
+
+def test_spawned_workers_write_the_same_spec_data_as_one_process(tmp_path):
+    """Workers are spawned processes that know the category only from the config's spec."""
+    from ucope.data.dataset import load_dataset
+    from ucope.data.generate import GenerateConfig, generate_dataset
+
+    write_two_link_urdf(tmp_path / "src")
+    own = load_spec({**VALID, "base_dir": str(tmp_path / "src"), "size_scale_range": [0.8, 1.25]})
+    cfg = GenerateConfig(category="toy_box", spec=own.doc, num=8, shard_size=2, views_per_instance=2, max_points=256)
+    one = load_dataset(generate_dataset(tmp_path / "one", cfg, workers=1, progress=False))
+    two = load_dataset(generate_dataset(tmp_path / "two", cfg, workers=2, progress=False))
+    for i in range(8):
+        for k in ("points", "part_labels", "cam_from_part", "size_m", "joint_state"):
+            np.testing.assert_array_equal(one[i][k], two[i][k])
