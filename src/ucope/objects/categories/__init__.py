@@ -1,4 +1,5 @@
-"""The procedural categories: a registry of :class:`CategorySpec`, one module per category.
+"""The procedural categories: a registry of :class:`CategorySpec`, one module per category (categories of
+your own objects, from a spec, are registered at run time: :mod:`ucope.objects.spec`).
 
 Each category is a generator: ``spec.build(rng, instance_id, shape_family) -> ArticulatedObject`` draws a
 new, plausible instance of one of the category's :class:`ShapeFamily` from its shape-parameter ranges
@@ -77,7 +78,8 @@ class CategorySpec:
 
     Attributes:
         name: registry name (``"laptop"``, ``"laptop_rigid"``...).
-        family: ``"artimage"`` (articulated, ArtImage-like) or ``"nocs"`` (rigid, NOCS-like).
+        family: ``"artimage"`` (articulated, ArtImage-like), ``"nocs"`` (rigid, NOCS-like) or ``"own"`` (from a
+            category spec of your own objects, :mod:`ucope.objects.spec`).
         part_names: the K part names, root first.
         joint_types: the K-1 joint types.
         symmetry: per part ``"none"`` or ``"y"``.
