@@ -49,6 +49,7 @@ BAD = [
     ("instances", ..., r"instances: missing", True),
     ("ucope_category_spec", 2, r"reads format 1, got 2", True),
     ("name", "my box", r"name: must be a non-empty name", True),
+    ("name", "kiste_\u00e4", r"name: must be a non-empty name", True),
     ("name", "laptop", r"'laptop' is a built-in category", False),
     ("parts", [], r"parts: must be a non-empty list", True),
     ("parts.0", {"name": "base"}, r"parts\[0\]: must be an object with name and links", True),

@@ -164,7 +164,7 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
         raise _fail("ucope_category_spec", f"this ucope reads format {SPEC_FORMAT}, got {doc['ucope_category_spec']!r}")
     out: dict[str, Any] = {"ucope_category_spec": SPEC_FORMAT}
     name = doc["name"]
-    if not isinstance(name, str) or not name or not all(c.isalnum() or c in "_-" for c in name):
+    if not isinstance(name, str) or not name or not all(c.isascii() and (c.isalnum() or c in "_-") for c in name):
         raise _fail("name", f"must be a non-empty name of letters, digits, '_' and '-', got {name!r}")
     from .categories import CATEGORY_NAMES
 
