@@ -25,9 +25,48 @@ def _parse_shards(text: str | None) -> range | None:
         raise UcopeError(f"--shards must look like START:STOP (e.g. 0:10), got {text!r}") from None
 
 
+def _spec_summary(own) -> str:
+    import numpy as np
+
+    lines = [f"{own.name}: valid spec, {len(own.families)} instance file(s), K = {own.spec.num_parts}"]
+    for p in own.doc["parts"]:
+        links = p["links"] if p["links"] == "*" else ", ".join(p["links"])
+        lines.append(f"  part {p['name']}: links {links}; symmetry {p['symmetry']}")
+    first = own.objects[own.families[0]]
+    for i, (j, js) in enumerate(zip(own.doc["joints"], first.joints, strict=True)):
+        unit = "rad" if js.type == "revolute" else "m"
+        lines.append(
+            f"  joint {i} {j['joint']!r}: {js.type} part {js.parent} -> {js.child}, "
+            f"states [{js.limits[0]:.4g}, {js.limits[1]:.4g}] {unit} "
+            f"(spec: {j['range']} {j['unit']}, sign {j['sign']:+d}, offset {j['offset']:g})"
+        )
+    for fam in own.families:
+        o = own.objects[fam]
+        lo, hi = o.bounds(o.rest_state)
+        held = " (held out: ood)" if any(f.held_out for f in own.spec.shape_families if f.name == fam) else ""
+        ext = np.round(100 * (hi - lo), 1).tolist()
+        lines.append(f"  instance {fam}{held}: {o.params['source']}, rest-state extents {ext} cm")
+    return "\n".join(lines)
+
+
 def cmd_categories(args: argparse.Namespace) -> int:
     from ..objects.categories import list_categories
 
+    if args.spec is not None:
+        from ..data.visualize import plot_object
+        from ..objects.spec import load_spec
+
+        own = load_spec(args.spec)
+        print(_spec_summary(own))
+        if not args.no_picture:
+            obj = own.objects[own.families[0]]
+            state = obj.limits.mean(axis=1) if obj.joints else None
+            out = Path(args.picture or f"conventions_{own.name}.png")
+            title = f"{own.name} ({own.families[0]})" + (
+                f": state {[round(float(v), 2) for v in state]}" if state is not None else ""
+            )
+            print(f"wrote {plot_object(obj, out, state=state, title=title)}")
+        return 0
     rows = [("name", "family", "K", "joints", "symmetry", "parts")]
     for s in list_categories():
         rows.append(
@@ -45,8 +84,15 @@ def _generate_config(args: argparse.Namespace, **overrides):
     from ..render.views import ViewConfig
 
     view = ViewConfig(noise=DepthNoise(enabled=not args.no_noise), floor=not args.no_floor, num_distractors=args.distractors)
+    category, spec = args.category, None
+    if getattr(args, "spec", None) is not None:
+        from ..objects.spec import register_spec
+
+        own = register_spec(args.spec)
+        category, spec = own.name, own.doc
     kw = dict(
-        category=args.category,
+        category=category,
+        spec=spec,
         split=args.split,
         num=args.num,
         seed=args.seed,
@@ -463,11 +509,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"ucope {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    c = sub.add_parser("categories", help="list the procedural categories (K, joints, symmetry)")
+    c = sub.add_parser(
+        "categories",
+        help="list the procedural categories (K, joints, symmetry), or check a category spec of your own objects",
+    )
+    c.add_argument(
+        "--spec", default=None, help="category spec JSON file (docs/own_objects.md): check it, read its files, draw it"
+    )
+    c.add_argument("--picture", default=None, help="with --spec: the conventions picture to write (default conventions_NAME.png)")
+    c.add_argument("--no-picture", action="store_true", help="with --spec: check only, draw nothing")
     c.set_defaults(func=cmd_categories)
 
     g = sub.add_parser("generate", help="generate a synthetic data set (sharded, resumable)")
-    g.add_argument("--category", required=True, help=f"one of: {', '.join(CATEGORY_NAMES)}")
+    what = g.add_mutually_exclusive_group(required=True)
+    what.add_argument("--category", help=f"one of: {', '.join(CATEGORY_NAMES)}")
+    what.add_argument("--spec", help="a category spec JSON file of your own objects (docs/own_objects.md)")
     g.add_argument("--split", default="train", choices=SPLITS, help="instance split (disjoint instance streams)")
     g.add_argument("--num", type=int, required=True, help="number of views")
     g.add_argument("--out", required=True, help="output folder (created; re-running resumes)")

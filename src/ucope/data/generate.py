@@ -29,7 +29,7 @@ from .sample import background_fields, sample_from_view
 from .scenes import add_adjacent_distractor
 from .shards import FORMAT_VERSION, shard_name, write_shard
 
-__all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng"]
+__all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng", "category_of"]
 
 MIN_OBJECT_PIXELS = 64
 """A view must show at least this many object pixels; otherwise another view is drawn."""
@@ -50,6 +50,9 @@ class GenerateConfig:
         adjacent_distractor: probability that a view gets one more distractor object standing right next
             to the object in the image (:func:`ucope.data.scenes.add_adjacent_distractor`), so that a
             bleeding mask meets another object, not only the floor.
+        spec: the normalised category spec (:func:`ucope.objects.spec.check_spec`) of a category of your own
+            objects (``ucope generate --spec``); ``category`` is then its name. It is registered in every
+            process that makes samples (so spawned workers too), and stored in ``meta.json``.
         scale: build every instance at this uniform scale factor instead of its split's own (1 for
             train, val and test, the drawn factor for ood): the same shapes at another size (the scale
             curve of docs/results.md). The camera distance range scales with each instance's factor, so
@@ -69,9 +72,12 @@ class GenerateConfig:
     background: bool = True
     adjacent_distractor: float = 0.5
     scale: float | None = None
+    spec: dict | None = None
 
     def validate(self) -> None:
-        get_category(self.category)  # UnknownCategoryError lists the valid names
+        if self.spec is not None and self.spec.get("name") != self.category:
+            raise InputError(f"the spec describes category {self.spec.get('name')!r}, not {self.category!r}")
+        category_of(self)  # UnknownCategoryError lists the valid names
         if self.split not in SPLITS:
             raise InputError(f"unknown split {self.split!r}; valid splits: {', '.join(SPLITS)}")
         for name in ("num", "shard_size", "views_per_instance", "max_points"):
@@ -112,13 +118,14 @@ class GenerateConfig:
             "generator_version": GENERATOR_VERSION,
             "conventions_version": CONVENTIONS_VERSION,
             "format_version": FORMAT_VERSION,
+            **({"spec": self.spec} if self.spec is not None else {}),
         }
 
     def meta(self) -> dict:
         """``meta.json``: the settings, the category's declared structure (part names and symmetries,
         joint tree, canonical axes, limits: :meth:`ucope.objects.articulation.ArticulatedObject.structure`
         of the split's instance 0) and bookkeeping."""
-        spec = get_category(self.category)
+        spec = category_of(self)
         return {
             **self.settings(),
             "family": spec.family,
@@ -131,6 +138,19 @@ class GenerateConfig:
             "ucope_version": __version__,
             "structure": make_instance(self.category, self.split, 0, self.seed, scale=self.scale).structure(),
         }
+
+
+def category_of(cfg: GenerateConfig):
+    """The :class:`~ucope.objects.categories.CategorySpec` of ``cfg``'s category; a category from a spec
+    (``cfg.spec``) is registered in this process first (once: its files are read then)."""
+    if cfg.spec is not None:
+        from ..objects.categories import registered_doc
+
+        if registered_doc(cfg.category) != cfg.spec:
+            from ..objects.spec import register_spec
+
+            register_spec(cfg.spec, quiet=True)
+    return get_category(cfg.category)
 
 
 def sample_rng(category: str, split: str, seed: int, index: int) -> np.random.Generator:
@@ -153,7 +173,7 @@ def _instance(cfg: GenerateConfig, inst: int):
 
 def make_sample(cfg: GenerateConfig, index: int, return_view: bool = False):
     """Build sample ``index`` of the data set described by ``cfg`` (deterministic)."""
-    spec = get_category(cfg.category)
+    spec = category_of(cfg)
     obj = _instance(cfg, index // cfg.views_per_instance)
     if obj.scale != 1.0:  # a scaled object: the camera keeps its distance relative to the object's size
         spec = dataclasses.replace(spec, distance_range_m=tuple(d * obj.scale for d in spec.distance_range_m))

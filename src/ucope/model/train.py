@@ -262,7 +262,10 @@ def _load_samples(tc: TrainConfig):
     )
 
 
-def _load_val(tc: TrainConfig):
+def _load_val(tc: TrainConfig, spec: dict | None = None):
+    """The validation samples and their description: ``tc.val_data``, else ``tc.val_samples`` views of the
+    category's ``val`` split generated here (``spec``: the training data's category spec, for a category of
+    your own objects, whose files must then be readable here)."""
     if tc.val_data is not None:
         from ..data.dataset import load_dataset
 
@@ -278,7 +281,9 @@ def _load_val(tc: TrainConfig):
         }
     from ..data.generate import GenerateConfig, make_sample
 
-    cfg = GenerateConfig(category=tc.category, split="val", num=tc.val_samples, seed=tc.data_seed, views_per_instance=1)
+    cfg = GenerateConfig(
+        category=tc.category, split="val", num=tc.val_samples, seed=tc.data_seed, views_per_instance=1, spec=spec
+    )
     return [make_sample(cfg, i) for i in range(tc.val_samples)], {
         "kind": "generated",
         "split": "val",
@@ -491,7 +496,8 @@ class _Run:
         if self.steps_per_epoch == 0:
             raise InputError(f"the training data ({len(self.items)} samples) is smaller than one global batch ({self.per_step})")
         self.total = int(tc.steps) if tc.steps is not None else int(round(float(tc.epochs) * self.steps_per_epoch))
-        self.val_samples, self.val_desc = _load_val(tc) if dd.main else (None, None)
+        spec = None if tc.on_the_fly else getattr(self.samples, "meta", {}).get("spec")
+        self.val_samples, self.val_desc = _load_val(tc, spec) if dd.main else (None, None)
         self.log = _MetricsLog(self.out / "metrics.jsonl", dd.main, self.step if self.ckpt is not None else None)
         self.t_start = time.perf_counter()
         self.window_t0 = self.t_start

@@ -1,4 +1,5 @@
-"""The procedural categories: a registry of :class:`CategorySpec`, one module per category.
+"""The procedural categories: a registry of :class:`CategorySpec`, one module per category (categories of
+your own objects, from a spec, are registered at run time: :mod:`ucope.objects.spec`).
 
 Each category is a generator: ``spec.build(rng, instance_id, shape_family) -> ArticulatedObject`` draws a
 new, plausible instance of one of the category's :class:`ShapeFamily` from its shape-parameter ranges
@@ -40,6 +41,8 @@ __all__ = [
     "make_instance",
     "instance_rng",
     "instance_family_and_scale",
+    "register_category",
+    "registered_doc",
 ]
 
 SPLITS = ("train", "val", "test", "ood")
@@ -75,7 +78,8 @@ class CategorySpec:
 
     Attributes:
         name: registry name (``"laptop"``, ``"laptop_rigid"``...).
-        family: ``"artimage"`` (articulated, ArtImage-like) or ``"nocs"`` (rigid, NOCS-like).
+        family: ``"artimage"`` (articulated, ArtImage-like), ``"nocs"`` (rigid, NOCS-like) or ``"own"`` (from a
+            category spec of your own objects, :mod:`ucope.objects.spec`).
         part_names: the K part names, root first.
         joint_types: the K-1 joint types.
         symmetry: per part ``"none"`` or ``"y"``.
@@ -84,6 +88,8 @@ class CategorySpec:
         shape_families: the category's shape families (1-2 of them held out for the ``ood`` split).
         build: ``(rng, instance_id, shape_family) -> ArticulatedObject``: an instance of that family.
         description: one line for ``ucope categories``.
+        procedural: ``True`` for the built-in generators (they must hold some, not all, families out);
+            ``False`` for a category from a spec (:mod:`ucope.objects.spec`), whose held-out files are optional.
     """
 
     name: str
@@ -96,12 +102,13 @@ class CategorySpec:
     shape_families: tuple[ShapeFamily, ...]
     build: Callable[[np.random.Generator, str, str], ArticulatedObject]
     description: str = ""
+    procedural: bool = True
 
     def __post_init__(self) -> None:
         names = [f.name for f in self.shape_families]
         if len(set(names)) != len(names) or not names:
             raise ValueError(f"{self.name}: shape family names must be unique and non-empty, got {names}")
-        if not any(f.held_out for f in self.shape_families) or all(f.held_out for f in self.shape_families):
+        if self.procedural and (not any(f.held_out for f in self.shape_families) or all(f.held_out for f in self.shape_families)):
             raise ValueError(f"{self.name}: some shape families, not all, must be held out")
 
     @property
@@ -123,7 +130,11 @@ class CategorySpec:
         if split not in SPLITS:
             raise InputError(f"unknown split {split!r}; valid splits: {', '.join(SPLITS)}")
         ood = split == "ood"
-        return tuple(f.name for f in self.shape_families if f.held_out == ood)
+        fams = tuple(f.name for f in self.shape_families if f.held_out == ood)
+        if not fams:
+            which = "held out (ood)" if ood else "not held out"
+            raise InputError(f"category {self.name!r} has no shape families {which}: it has no {split!r} split")
+        return fams
 
 
 def _load() -> dict[str, CategorySpec]:
@@ -178,11 +189,36 @@ def list_categories() -> list[CategorySpec]:
 
 
 def get_category(name: str) -> CategorySpec:
-    """The spec of category ``name``; raises :class:`UnknownCategoryError` listing the valid names."""
+    """The spec of category ``name`` (built in, or registered in this process by :func:`register_category`);
+    raises :class:`UnknownCategoryError` listing the valid names."""
     reg = _registry()
     if name not in reg:
-        raise UnknownCategoryError(f"unknown category {name!r}; valid categories: {', '.join(CATEGORY_NAMES)}")
+        own = [n for n in reg if n not in CATEGORY_NAMES]
+        extra = f"; registered from specs: {', '.join(own)}" if own else ""
+        raise UnknownCategoryError(
+            f"unknown category {name!r}; valid categories: {', '.join(CATEGORY_NAMES)}{extra} "
+            "(a category of your own comes from a spec: ucope generate --spec FILE)"
+        )
     return reg[name]
+
+
+_DOCS: dict[str, dict] = {}
+
+
+def register_category(spec: CategorySpec, doc: dict | None = None) -> None:
+    """Add a non-procedural category (from :func:`ucope.objects.spec.load_spec`) to this process's registry,
+    replacing an earlier one of the same name; ``doc``: the spec document it came from
+    (:func:`registered_doc`). A built-in name raises :class:`InputError`."""
+    if spec.name in CATEGORY_NAMES or spec.procedural:
+        raise InputError(f"cannot register {spec.name!r}: built-in names and procedural categories are fixed")
+    _registry()[spec.name] = spec
+    if doc is not None:
+        _DOCS[spec.name] = doc
+
+
+def registered_doc(name: str) -> dict | None:
+    """The spec document a registered category came from (``None`` for a built-in or unknown one)."""
+    return _DOCS.get(name)
 
 
 def _key(text: str) -> int:

@@ -1,0 +1,277 @@
+"""Category specs (ucope.objects.spec): every validation error, the JSON Schema, registration, instances."""
+
+from __future__ import annotations
+
+import copy
+import json
+import warnings
+
+import numpy as np
+import pytest
+from own_objects_support import (
+    two_link_spec,
+    write_mesh_folder,
+    write_spec,
+    write_three_link_urdf,
+    write_two_link_urdf,
+)
+
+from ucope.errors import InputError, UnknownCategoryError
+from ucope.objects.categories import get_category, instance_family_and_scale, make_instance, register_category
+from ucope.objects.spec import SCHEMA_PATH, check_spec, load_spec, read_spec, register_spec
+
+pytest.importorskip("yourdfpy")
+
+VALID = two_link_spec("two_link.urdf")
+
+
+def _set(path: str, value):
+    """A copy of VALID with the field at dotted ``path`` (list indices as numbers) set to ``value``
+    (``...`` deletes it)."""
+    doc = copy.deepcopy(VALID)
+    *head, last = [int(k) if k.isdigit() else k for k in path.split(".")]
+    node = doc
+    for k in head:
+        node = node[k]
+    if value is ...:
+        del node[last]
+    else:
+        node[last] = value
+    return doc
+
+
+# (field path, value, error message fragment, whether the JSON Schema alone rejects it too)
+BAD = [
+    ("surplus", 1, r"surplus: unknown field", True),
+    ("ucope_category_spec", ..., r"ucope_category_spec: missing", True),
+    ("name", ..., r"name: missing", True),
+    ("parts", ..., r"parts: missing", True),
+    ("instances", ..., r"instances: missing", True),
+    ("ucope_category_spec", 2, r"reads format 1, got 2", True),
+    ("name", "my box", r"name: must be a non-empty name", True),
+    ("name", "kiste_\u00e4", r"name: must be a non-empty name", True),
+    ("name", "laptop", r"'laptop' is a built-in category", False),
+    ("parts", [], r"parts: must be a non-empty list", True),
+    ("parts.0", {"name": "base"}, r"parts\[0\]: must be an object with name and links", True),
+    ("parts.0.colour", "red", r"parts\[0\]: unknown field", True),
+    ("parts.0.name", "", r"parts\[0\].name: must be a non-empty string", True),
+    ("parts.0.links", [], r"parts\[0\].links: must be a non-empty list", True),
+    ("parts.0.links", "base_link", r"parts\[0\].links: must be a non-empty list", True),
+    ("parts.0.symmetry", "x", r"parts\[0\].symmetry: must be one of", True),
+    ("parts.1.name", "base", r"part names must be unique", False),
+    ("joints", [], r"joints: 2 parts need 1 category joints", False),
+    ("joints.0", {"joint": "hinge"}, r"joints\[0\]: must be an object with joint and range", True),
+    ("joints.0.speed", 1, r"joints\[0\]: unknown field", True),
+    ("joints.0.joint", "", r"joints\[0\].joint: must name a joint", True),
+    ("joints.0.sign", 2, r"joints\[0\].sign: must be 1 or -1", True),
+    ("joints.0.unit", "grad", r"joints\[0\].unit: must be one of rad, deg, m, cm, mm", True),
+    ("joints.0.offset", "0", r"joints\[0\].offset: must be a finite number", True),
+    ("joints.0.range", [0, 1, 2], r"joints\[0\].range: must be \[lower, upper\]", True),
+    ("joints.0.range", [90, 10], r"joints\[0\].range: must be finite with lower <= upper", False),
+    ("joints.0.range", [10, 10], r"joints\[0\].range: must span a range", False),
+    ("held_joints", {"knob": "open"}, r"held_joints: must map joint names to finite file values", True),
+    ("instances", [], r"instances: must be a non-empty list", True),
+    ("instances.0", {"scale": 1}, r"instances\[0\]: must be an object with a file", True),
+    ("instances.0.colour", 1, r"instances\[0\]: unknown field", True),
+    ("instances.0.file", "", r"instances\[0\].file: must be a path", True),
+    ("instances.0.rotation", "x_up", r"instances\[0\].rotation: unknown rotation rule 'x_up'", True),
+    ("instances.0.rotation", {"euler_xyz_deg": [0, 90]}, r"euler_xyz_deg must be 3 finite numbers", True),
+    ("instances.0.rotation", [[1, 0, 0], [0, 1, 0], [0, 0, -1]], r"must be a rotation \(orthonormal, determinant \+1\)", False),
+    ("instances.0.rotation", [[2, 0, 0], [0, 1, 0], [0, 0, 1]], r"must be a rotation", False),
+    ("instances.0.rotation", [1, 0, 0], r"instances\[0\].rotation: must be a rule", True),
+    ("instances.0.scale", 0, r"instances\[0\].scale: must be a positive number", True),
+    ("instances.0.held_out", "yes", r"instances\[0\].held_out: must be true or false", True),
+    ("instances.0.held_joints", [1], r"instances\[0\].held_joints: must map joint names", True),
+    ("mesh_search_path", "meshes", r"mesh_search_path: must be a list of folders", True),
+    ("size_scale_range", [0, 2], r"size_scale_range: must be positive", False),
+    ("size_range_m", [1], r"size_range_m: must be \[lower, upper\]", True),
+    ("camera", {"fov": 60}, r"camera: must be an object with distance_range_m", True),
+    ("camera.distance_range_m", [-1, 1], r"camera.distance_range_m: must be positive", False),
+    ("camera.elevation_range_deg", [10, 120], r"camera.elevation_range_deg: must lie within \[-90, 90\]", False),
+]
+
+
+@pytest.mark.parametrize(("path", "value", "match", "schema_too"), BAD, ids=[f"{b[0]}={b[1]!r}"[:60] for b in BAD])
+def test_every_spec_error_names_its_field(path, value, match, schema_too):
+    doc = _set(path, value)
+    with pytest.raises(InputError, match=r"^category spec: .*" + match):
+        check_spec(doc)
+    jsonschema = pytest.importorskip("jsonschema")
+    if schema_too:  # the shipped schema says the same to editors and other tools
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(json.loads(json.dumps(doc)), json.loads(SCHEMA_PATH.read_text()))
+
+
+def test_valid_spec_passes_the_checks_and_the_schema():
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads(SCHEMA_PATH.read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    jsonschema.validate(VALID, schema)
+    out = check_spec(VALID)
+    jsonschema.validate({k: v for k, v in out.items()}, schema)  # normalised docs are valid too
+    assert check_spec(out) == out  # normalising is idempotent (data sets compare specs)
+    assert out["joints"][0] == {"joint": "hinge", "sign": 1, "offset": 0.0, "unit": "deg", "range": [0.0, 100.0]}
+    assert out["size_scale_range"] == [1.0, 1.0] and out["parts"][1]["symmetry"] == "none"
+
+
+def test_read_spec_names_missing_and_broken_files(tmp_path):
+    with pytest.raises(InputError, match=r"category spec .*nope.json does not exist"):
+        read_spec(tmp_path / "nope.json")
+    (tmp_path / "bad.json").write_text("{parts: ")
+    with pytest.raises(InputError, match=r"bad.json is not readable JSON"):
+        read_spec(tmp_path / "bad.json")
+    (tmp_path / "list.json").write_text("[]")
+    with pytest.raises(InputError, match=r"must be a JSON object"):
+        read_spec(tmp_path / "list.json")
+    write_spec(tmp_path / "ok.json", VALID)
+    assert read_spec(tmp_path / "ok.json")["base_dir"] == str(tmp_path.resolve())
+
+
+# ------------------------------------------------------------------------------ reading the files
+def test_missing_instance_files_and_empty_folders_are_named(tmp_path):
+    with pytest.raises(InputError, match=r"instances\[0\].file: .*two_link.urdf does not exist"):
+        load_spec({**VALID, "base_dir": str(tmp_path)})
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputError, match=r"instances\[0\].file: folder .*empty holds no model files"):
+        load_spec({**VALID, "base_dir": str(tmp_path), "instances": [{"file": "empty"}]})
+
+
+def test_a_unit_that_does_not_fit_the_joint_is_named(tmp_path):
+    write_two_link_urdf(tmp_path)
+    doc = _set("joints.0.unit", "mm")
+    with pytest.raises(InputError, match=r"joints\[0\].unit: 'mm' is a prismatic unit but joint 'hinge' .* is revolute"):
+        load_spec({**doc, "base_dir": str(tmp_path)})
+
+
+def test_range_outside_the_file_limits_names_joint_and_file(tmp_path):
+    write_two_link_urdf(tmp_path)
+    doc = _set("joints.0.range", [0, 130])  # the file allows 0..2 rad = 114.6 deg
+    with pytest.raises(InputError, match=r"two_link.urdf: category joint 0 \('hinge'\): sampled range \[0, 2.269\] rad"):
+        load_spec({**doc, "base_dir": str(tmp_path)})
+
+
+def test_instances_of_different_trees_are_refused(tmp_path):
+    write_two_link_urdf(tmp_path)
+    write_three_link_urdf(tmp_path)
+    doc = {
+        **VALID,
+        "base_dir": str(tmp_path),
+        "parts": [{"name": "base", "links": ["base_link", "cabinet"]}, {"name": "lid", "links": "*"}],
+        "joints": [{"joint": "hinge", "range": [0, 0.2]}],
+        "instances": [{"file": "two_link.urdf"}, {"file": "three_link.urdf"}],
+    }
+    with pytest.raises(InputError, match=r"names link 'cabinet', which the file lacks"):
+        load_spec(doc)
+
+
+def test_a_mesh_in_millimetres_is_warned_about_by_name(tmp_path):
+    folder = write_mesh_folder(tmp_path / "m")
+    import trimesh
+
+    trimesh.creation.box(extents=[100.0, 200.0, 100.0]).export(folder / "big_mm.stl")
+    doc = {
+        "ucope_category_spec": 1,
+        "name": "boxes",
+        "parts": [{"name": "body", "links": "*"}],
+        "instances": [{"file": "m"}],
+        "size_range_m": [0.05, 1.0],
+        "base_dir": str(tmp_path),
+    }
+    with pytest.warns(
+        UserWarning,
+        match=r"big_mm.stl: the object's diagonal is 244.9 m, outside the spec's size_range_m \[0.05, 1\]; "
+        r"it looks like millimetres: give the instance scale 0.001",
+    ):
+        own = load_spec(doc)
+    assert len(own.families) == 4 and own.spec.num_parts == 1
+    doc["instances"] = [{"file": "m/big_mm.stl", "scale": 0.001}]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # at the right scale: no warning
+        own = load_spec(doc)
+    np.testing.assert_allclose(own.objects[own.families[0]].parts[0].size_m, [0.1, 0.2, 0.1], atol=1e-9)
+
+
+def test_mesh_folder_spec_makes_a_rigid_category_with_every_file(tmp_path):
+    write_mesh_folder(tmp_path / "m")
+    doc = {
+        "ucope_category_spec": 1,
+        "name": "boxes",
+        "parts": [{"name": "body", "links": "*", "symmetry": "none"}],
+        "instances": [{"file": "m"}, {"file": "m/c.ply", "held_out": True}],
+        "base_dir": str(tmp_path),
+    }
+    own = load_spec(doc)
+    assert own.families == ("000_a", "001_b", "002_c", "003_c")
+    assert own.spec.families_for_split("ood") == ("003_c",) and own.spec.joint_types == ()
+
+
+# ------------------------------------------------------------------------ registry and instances
+@pytest.fixture
+def registered(tmp_path):
+    write_two_link_urdf(tmp_path)
+    from ucope.objects import categories
+
+    doc = {**VALID, "base_dir": str(tmp_path), "name": "toy_box_reg", "size_scale_range": [0.8, 1.25]}
+    yield register_spec(doc)
+    categories._registry().pop("toy_box_reg", None)  # leave the process registry as it was
+    categories._DOCS.pop("toy_box_reg", None)
+
+
+def test_registered_spec_makes_deterministic_scaled_instances(registered):
+    spec = get_category("toy_box_reg")
+    assert spec.family == "own" and spec.part_names == ("base", "lid") and spec.joint_types == ("revolute",)
+    a = make_instance("toy_box_reg", "train", 3, seed=1)
+    b = make_instance("toy_box_reg", "train", 3, seed=1)
+    np.testing.assert_array_equal(a.parts[0].mesh.vertices, b.parts[0].mesh.vertices)
+    assert a.instance_id == "toy_box_reg/train/1/000003" and a.shape_family == "000_two_link"
+    scales = [make_instance("toy_box_reg", "train", i).scale for i in range(12)]
+    assert all(0.8 <= s <= 1.25 for s in scales) and len(set(scales)) == 12
+    np.testing.assert_allclose(a.limits, [[0.0, np.radians(100.0)]])
+    base = registered.objects["000_two_link"]
+    np.testing.assert_allclose(a.size_m, base.size_m * a.scale, atol=1e-12)
+    with pytest.raises(InputError, match=r"no shape families held out \(ood\): it has no 'ood' split"):
+        instance_family_and_scale("toy_box_reg", "ood", 0)
+
+
+def test_builtin_names_cannot_be_registered_and_unknown_names_point_to_specs(registered):
+    import dataclasses
+
+    with pytest.raises(InputError, match=r"cannot register 'laptop'"):
+        register_category(dataclasses.replace(registered.spec, name="laptop"))
+    with pytest.raises(UnknownCategoryError, match=r"registered from specs: .*toy_box_reg.*ucope generate --spec"):
+        get_category("nope")
+
+
+def test_generated_samples_of_a_spec_are_identical_after_registering_again(registered):
+    from ucope.data.generate import GenerateConfig, make_sample
+    from ucope.objects import categories
+
+    cfg = GenerateConfig(category="toy_box_reg", split="train", num=4, views_per_instance=2, max_points=256, spec=registered.doc)
+    cfg.validate()
+    a = make_sample(cfg, 3)
+    # a fresh process (a spawned worker) knows only the config: forget the registration and rebuild
+    categories._registry().pop("toy_box_reg")
+    categories._DOCS.pop("toy_box_reg")
+    b = make_sample(cfg, 3)
+    for k in ("points", "part_labels", "cam_from_part", "size_m", "joint_state"):
+        np.testing.assert_array_equal(a[k], b[k])
+    assert a["category"] == "toy_box_reg" and a["points"].shape == (256, 3)
+    meta = cfg.meta()
+    assert meta["spec"] == registered.doc and meta["family"] == "own" and len(meta["structure"]["joints"]) == 1
+    with pytest.raises(InputError, match=r"the spec describes category 'toy_box_reg', not 'other'"):
+        GenerateConfig(category="other", spec=registered.doc).validate()
+
+
+def test_spawned_workers_write_the_same_spec_data_as_one_process(tmp_path):
+    """Workers are spawned processes that know the category only from the config's spec."""
+    from ucope.data.dataset import load_dataset
+    from ucope.data.generate import GenerateConfig, generate_dataset
+
+    write_two_link_urdf(tmp_path / "src")
+    own = load_spec({**VALID, "base_dir": str(tmp_path / "src"), "size_scale_range": [0.8, 1.25]})
+    cfg = GenerateConfig(category="toy_box", spec=own.doc, num=8, shard_size=2, views_per_instance=2, max_points=256)
+    one = load_dataset(generate_dataset(tmp_path / "one", cfg, workers=1, progress=False))
+    two = load_dataset(generate_dataset(tmp_path / "two", cfg, workers=2, progress=False))
+    for i in range(8):
+        for k in ("points", "part_labels", "cam_from_part", "size_m", "joint_state"):
+            np.testing.assert_array_equal(one[i][k], two[i][k])
