@@ -38,6 +38,7 @@ from ucope import __version__
 from ucope.data.corrupt import KINDS, CorruptionContext, background_pool, corrupt
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.scenes import add_adjacent_distractor
+from ucope.estimation.confidence import auroc
 from ucope.eval.evaluate import mug_handle_visible
 from ucope.eval.metrics import rotation_error_deg, translation_error_m
 from ucope.objects.categories import get_category
@@ -247,6 +248,7 @@ def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir:
             levels[s]["views"]["handle_visible"] = [r.get("handle_visible") for r in recs]
     return {
         "category": category,
+        "calibrated": est.calibration is not None,
         "part_names": list(spec.part_names),
         "part_symmetry": list(spec.symmetry),
         "views": views,
@@ -423,6 +425,31 @@ def build_page(res: dict, figure_rel: str) -> str:
             if v:
                 L.append(f"| {m} | {_rots(v['median_rot_change_deg'])} | {_rots(v['max_rot_change_deg'])} |")
         L.append("")
+    L += [
+        "### Do the scores say when a pose is wrong?",
+        "",
+        "AUROC of the object score (`PoseResult.score`, the lowest part score: a calibrated success probability for a "
+        "model with a calibration, the raw vote score otherwise) for telling successful views from failed ones, over "
+        "every view of every level above (clean and corrupted); goal >= 0.85. The threshold is the model card's "
+        "(`info.calibration.threshold`); below it `predict` warns.",
+        "",
+        "| model | views | success | AUROC | calibrated |",
+        "|---|---|---|---|---|",
+    ]
+    for m in models:
+        sc, ok = [], []
+        for v in res["models"][m]["levels"].values():
+            for score, good, err in zip(v["views"]["score"], v["views"]["success"], v["views"]["error"], strict=True):
+                if not err and score:
+                    sc.append(min(score))
+                    ok.append(bool(good))
+        a = auroc(np.array(sc), np.array(ok)) if sc else None
+        cal = res["models"][m].get("calibrated")
+        L.append(
+            f"| {m} | {len(sc)} | {100 * np.mean(ok):.0f} % | {'-' if a is None else f'{a:.3f}'} | "
+            f"{'-' if cal is None else ('yes' if cal else 'no')} |"
+        )
+    L.append("")
     errs = [
         (m, s, v["num_errors"], next(e for e in v["views"]["error"] if e))
         for m in models
