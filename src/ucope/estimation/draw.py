@@ -20,13 +20,26 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
 from ..plotting import PART_COLOURS, pyplot, save_figure, to_plot_axes
-from .result import PoseResult
+
+
+class PoseResult(Protocol):
+    """What the drawing reads of a :class:`ucope.estimation.result.PoseResult` (named here, not imported:
+    ``PoseResult.plot`` draws through this module, so this module must not import that one back)."""
+
+    category: str
+    model: str
+    parts: Sequence[Any]
+    joints: Sequence[Any]
+    part_labels: Any
+    timings_ms: dict
+
 
 __all__ = [
     "DrawnObject",
