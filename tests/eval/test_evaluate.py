@@ -247,9 +247,9 @@ def test_view_bins_follow_the_camera_yaw_about_the_object():
 def test_a_report_splits_its_errors_by_view_bin():
     from ucope.eval.evaluate import view_bin
 
-    class Skewed(Oracle):  # an error that differs between views: 1 degree per view index
+    class Skewed(Oracle):  # an error that differs between views: index + 0.5 degrees
         def predict_sample(self, s):
-            self.R = Rotation.from_euler("z", float(s["index"]), degrees=True).as_matrix()
+            self.R = Rotation.from_euler("z", s["index"] + 0.5, degrees=True).as_matrix()
             return super().predict_sample(s)
 
     rep = evaluate(Skewed("laptop"), samples("laptop", 12), progress=False)
@@ -259,5 +259,7 @@ def test_a_report_splits_its_errors_by_view_bin():
     for name, b in bins.items():
         mine = [i for i, y in enumerate(yaws) if view_bin(y) == name]
         assert b["num_samples"] == len(mine)
-        assert b["parts"]["rotation_deg"]["mean"][0] == pytest.approx(np.mean(mine), abs=1e-3)
+        assert b["parts"]["rotation_deg"]["mean"][0] == pytest.approx(np.mean(mine) + 0.5, abs=1e-3)
+        assert b["success"] == pytest.approx(np.mean(np.array(mine) + 0.5 < 10))
+    assert rep["success"]["fraction"] == pytest.approx(10 / 12)  # views 0-9 are within 10 degrees
     assert "front views" in format_report(rep) or "side views" in format_report(rep)

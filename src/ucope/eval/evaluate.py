@@ -14,7 +14,8 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
      "map": compute_map(...) | None,         # rigid (K = 1) categories: NOCS-style mAP, our exact protocol
      "map_nocs": compute_map(..., protocol="nocs") | None,   # the same under NOCS's reference protocol
      "map_records": [...] | None,            # their inputs (one GT, one prediction per view)
-     "view_bins": {"front" | "side" | "back": {"num_samples", "parts": summarize_parts(...)}},
+     "success": {"definition", "fraction"},  # views with every part < 10 deg and < 10 % of its box diagonal
+     "view_bins": {"front" | "side" | "back": {"num_samples", "success", "parts": summarize_parts(...)}},
      "iou_method": ..., "hardware": {...}, "ucope_version": ...,
      "samples": [{"index", "instance_id", "view_yaw_deg", "parts": [part_errors], "joints": [joint_errors],
                   "segmentation_iou": [K], "time_ms"}]}
@@ -61,6 +62,9 @@ __all__ = [
     "rigid_figures",
     "sample_errors",
     "VIEW_BINS",
+    "SUCCESS_ROT_DEG",
+    "SUCCESS_TRANS_REL",
+    "view_success",
     "view_bin",
     "view_yaw_deg",
 ]
@@ -98,6 +102,17 @@ def part_symmetry(category: str, symmetry: str, handle_visible: bool = True) -> 
 
 VIEW_BINS = {"front": (0.0, 45.0), "side": (45.0, 135.0), "back": (135.0, 180.0)}
 """View bins by the camera's absolute yaw about the object's y axis (degrees; 0 = in front, on +z)."""
+
+
+SUCCESS_ROT_DEG, SUCCESS_TRANS_REL = 10.0, 0.10
+"""A view succeeds when every part is within this rotation (deg) and translation (fraction of its
+ground-truth box diagonal) of the truth (the success of issues #13 / #14 and of the calibrated scores)."""
+
+
+def view_success(part_errs: Sequence[Mapping]) -> bool:
+    """Whether every part of one view (its :func:`ucope.eval.metrics.part_errors`) is within
+    :data:`SUCCESS_ROT_DEG` and :data:`SUCCESS_TRANS_REL`."""
+    return all(e["rotation_deg"] < SUCCESS_ROT_DEG and e["translation_norm"] < SUCCESS_TRANS_REL for e in part_errs)
 
 
 def view_yaw_deg(sample: Mapping) -> float:
@@ -294,6 +309,7 @@ def evaluate(
         }
     rigid = cfg.num_parts == 1
     map_records = map_records_of(results, kept) if rigid else None
+    ok = np.array([view_success(e["parts"]) for e in records])
     report: dict[str, Any] = {
         "format": EVAL_FORMAT,
         "model": estimator.name,
@@ -320,9 +336,14 @@ def evaluate(
         "map": compute_map(map_records) if rigid else None,
         "map_nocs": compute_map(map_records, protocol="nocs") if rigid else None,
         "map_records": map_records,
+        "success": {
+            "definition": f"every part < {SUCCESS_ROT_DEG:g} deg and < {100 * SUCCESS_TRANS_REL:g} % of its box diagonal",
+            "fraction": float(np.mean(ok)),
+        },
         "view_bins": {
             b: {
                 "num_samples": bins.count(b),
+                "success": float(np.mean(ok[np.array(bins) == b])),
                 "parts": summarize_parts([records[i]["parts"] for i in np.flatnonzero(np.array(bins) == b)]),
             }
             for b in VIEW_BINS
@@ -396,7 +417,7 @@ def format_report(report: Mapping) -> str:
     for b, vb in (report.get("view_bins") or {}).items():
         lines.append(
             f"  {b + ' views':12s} ({vb['num_samples']:3d}) rotation {_stat_cells(vb['parts']['rotation_deg'], '{:.1f}')}; "
-            f"10deg10cm {_cells(vb['parts']['fraction']['10deg10cm'], '{:.0f}', 100.0)} %"
+            f"success {100 * vb['success']:.0f} %"
         )
     if report.get("map"):
         lines.append(format_map_table(report["map"], indent="  "))
