@@ -585,13 +585,13 @@ def main() -> int:
             if not r and not o:
                 continue
             vb = (r or {}).get("view_bins", {})
-            cell_ = [f"{100 * vb[b]['success']:.0f} % ({vb[b]['num_samples']})" if b in vb else "-" for b in ("front", "side", "back")]
+            cell_ = [
+                f"{100 * vb[b]['success']:.0f} % ({vb[b]['num_samples']})" if b in vb else "-" for b in ("front", "side", "back")
+            ]
             rot = " / ".join(
                 cells(vb[b]["parts"]["rotation_deg"]["mean"], "{:.1f}") if b in vb else "-" for b in ("front", "side", "back")
             )
-            out.append(
-                f"| {c} | {success_cell(r)} | {success_cell(o)} | " + " | ".join(cell_) + f" | {rot} |"
-            )
+            out.append(f"| {c} | {success_cell(r)} | {success_cell(o)} | " + " | ".join(cell_) + f" | {rot} |")
         out.append("")
 
     # ------------------------------------------------------------------------------ other sizes
