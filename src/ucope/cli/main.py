@@ -279,6 +279,7 @@ def _estimator(args: argparse.Namespace):
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,
         rescale=not args.no_rescale,
+        remove_plane=args.remove_plane,
     )
 
 
@@ -473,6 +474,13 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         default=None,
         help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
         "eyeglasses, drawer, dishwasher and scissors models have it on)",
+    )
+    p.add_argument(
+        "--remove-plane",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="leave out a floor or table plane under the object that the mask let in (default: the model's own; "
+        "on for the shipped models where it measured better, docs/robustness.md)",
     )
     p.add_argument(
         "--no-rescale",

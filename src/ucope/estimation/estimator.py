@@ -40,7 +40,7 @@ from ..priors import cloud_radius
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
 from .confidence import Calibration, part_features
-from .inputs import MIN_POINTS, NORMAL_K, label_points, prepare_points, rgbd_points
+from .inputs import MIN_POINTS, NORMAL_K, find_support_plane, label_points, prepare_points, rgbd_points
 from .result import JointEstimate, PartEstimate, PoseResult
 
 __all__ = ["Estimator", "MAX_PAIRS", "EXTENT_REFUSE", "EXTENT_WARN"]
@@ -104,6 +104,10 @@ class Estimator:
             about its median point, estimate there, and scale the poses, sizes, pivots and prismatic
             states back (:meth:`predict`). Clouds inside the range are untouched. On by default; measured
             in docs/results.md (objects at 0.5-2x the training sizes).
+        remove_plane: look for a floor or table plane under the object that the segmentation let in
+            (:func:`ucope.estimation.inputs.find_support_plane`) and leave it out (its points get the label
+            -1). Off here; :meth:`load` takes the model's default (on where it measured better:
+            docs/robustness.md).
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -126,6 +130,7 @@ class Estimator:
         options: VotingOptions | None = None,
         calibration: Calibration | None = None,
         rescale: bool = True,
+        remove_plane: bool = False,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -155,25 +160,29 @@ class Estimator:
             raise InputError(f"the calibration is for {len(calibration.part_bias)} parts, the model has {self.cfg.num_parts}")
         self.calibration = calibration
         self.rescale = bool(rescale)
+        self.remove_plane = bool(remove_plane)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
-    def load(cls, model: str | os.PathLike, refine: bool | None = None, **kwargs) -> Estimator:
+    def load(cls, model: str | os.PathLike, refine: bool | None = None, remove_plane: bool | None = None, **kwargs) -> Estimator:
         """An estimator from a run folder / model JSON path, or the name of a shipped model
         (``Estimator.load("laptop")``; :func:`ucope.model.checkpoint.list_pretrained` lists them).
 
-        ``refine=None`` takes the model's own default (``info.defaults.refine`` of its JSON, set when it
-        was packaged where the refinement measured better). Other keyword arguments: as the constructor."""
+        ``refine=None`` / ``remove_plane=None`` take the model's own defaults (``info.defaults`` of its
+        JSON, set when it was packaged where they measured better). Other keyword arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
         net, meta = load_model(path)
         info = meta.get("info") or {}
+        defaults = info.get("defaults") or {}
         if refine is None:
-            refine = bool((info.get("defaults") or {}).get("refine", False))
+            refine = bool(defaults.get("refine", False))
+        if remove_plane is None:
+            remove_plane = bool(defaults.get("remove_plane", False))
         if "calibration" not in kwargs and info.get("calibration"):
             kwargs["calibration"] = Calibration.from_dict(info["calibration"])
-        return cls(net, name=str(Path(model)), refine=refine, **kwargs)
+        return cls(net, name=str(Path(model)), refine=refine, remove_plane=remove_plane, **kwargs)
 
     @property
     def category(self) -> str:
@@ -202,7 +211,16 @@ class Estimator:
         t0 = time.perf_counter()
         prep = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False, units=units)
         pts, nrm, raw, finite = prep.points, prep.normals, prep.raw, prep.finite
-        warnings = list(prep.warnings) + self._extent_warnings(pts, units)
+        warnings = list(prep.warnings)
+        plane = find_support_plane(pts, seed=self.seed) if self.remove_plane else None
+        if plane is not None and np.count_nonzero(keep := ~plane.removes(pts)) >= MIN_POINTS:
+            pts, nrm = pts[keep], (None if nrm is None else nrm[keep])
+            warnings.append(
+                f"a plane under the object ({100 * plane.fraction:.0f} % of the points) was left out as floor or table"
+            )
+        else:
+            plane = None
+        warnings += self._extent_warnings(pts, units)
         scale, centre = self.input_scale(pts)
         if scale != 1.0:
             pts = (centre + scale * (pts - centre)).astype(np.float32)
@@ -294,7 +312,8 @@ class Estimator:
         for k, pe in enumerate(parts):
             if np.count_nonzero(labels == k) < 3:
                 warnings.append(f"part {pe.label!r}: fewer than 3 points were segmented as it; its pose is a guess")
-        all_labels = label_points(raw, finite, p_net, np.where(background, -1, labels))
+        usable = finite if plane is None else finite & ~plane.removes(np.nan_to_num(raw))
+        all_labels = label_points(raw, usable, p_net, np.where(background, -1, labels))
         t5 = time.perf_counter()
         timings = {
             "preprocess": 1e3 * (t1 - t0 + t5 - t4),
