@@ -115,6 +115,14 @@ def main() -> int:
     ap.add_argument("--check-num", type=int, default=60)
     ap.add_argument("--max-change-deg", type=float, default=0.5)
     ap.add_argument("--max-change-m", type=float, default=0.002)
+    ap.add_argument(
+        "--remove-plane",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help="the categories whose models leave a support plane out by default (info.defaults.remove_plane; "
+        "docs/robustness.md has the measurements); others get it off; omitted: left as it is",
+    )
     args = ap.parse_args()
     dest = pretrained_dir()
     if args.figures_only:
@@ -140,6 +148,8 @@ def main() -> int:
         info = dict(meta.get("info", {}))
         info["test"] = test_figures(rep)
         set_defaults(info, args.reports, cat)
+        if args.remove_plane is not None:
+            info.setdefault("defaults", {})["remove_plane"] = cat in args.remove_plane
         info["fp16_check"] = {
             "num_samples": n,
             "max_change_rotation_deg": change[0],
