@@ -318,7 +318,45 @@ def cell(lev: dict | None) -> str:
     return f"{_rots(lev['median_rot_deg'])} · {100 * lev['success']:.0f} ({100 * lev['success_10deg10cm']:.0f}){err}"
 
 
-def build_page(res: dict, figure_rel: str) -> str:
+def targets_table(res: dict, before: dict | None, models: list[str]) -> list[str]:
+    """Issue #13's goals per model: success at each summary level against the clean success (>= 0.8 x clean;
+    200 points >= 0.7 x), median rotation <= 2 x clean, clean success no more than 10 % below the previous
+    models' (``before``: a results JSON of the same views with the models before robustness training)."""
+    L = [
+        "### Against the goals",
+        "",
+        "Per model: clean success now (before), then at each summary level the success now (before) and whether the "
+        "goal holds: success >= 0.8 x the clean success (>= 0.7 x at 200 points) and median rotation of every part "
+        "<= 2 x its clean one. *Before*: the same views and benchmark with the models shipped before the robustness "
+        "training (benchmarks/results_robustness_before.json, kinds of the summary only); `ok` / `no` is the goal now.",
+        "",
+        "| model | clean | " + " | ".join(SUMMARY_SPECS) + " |",
+        "|---" * (2 + len(SUMMARY_SPECS)) + "|",
+    ]
+    for m in models:
+        lv = res["models"][m]["levels"]
+        old = ((before or {}).get("models") or {}).get(m, {}).get("levels", {})
+        if "clean" not in lv:
+            continue
+        c_ok, c_rot = lv["clean"]["success"], np.asarray(lv["clean"]["median_rot_deg"], np.float64)
+
+        def pct(d, key):
+            return f"{100 * d[key]['success']:.0f}" if key in d else "-"
+
+        row = [f"{pct(lv, 'clean')} ({pct(old, 'clean')})"]
+        for sp in SUMMARY_SPECS:
+            if sp not in lv:
+                row.append("-")
+                continue
+            factor = 0.7 if sp.startswith("points") else 0.8
+            rot = np.asarray(lv[sp]["median_rot_deg"], np.float64)
+            good = lv[sp]["success"] >= factor * c_ok and bool(np.all(rot <= 2.0 * c_rot))
+            row.append(f"{pct(lv, sp)} ({pct(old, sp)}) {'ok' if good else 'no'}")
+        L.append(f"| {m} | " + " | ".join(row) + " |")
+    return L + [""]
+
+
+def build_page(res: dict, figure_rel: str, before: dict | None = None) -> str:
     models = [m for m in MODELS if m in res["models"]] + [m for m in res["models"] if m not in MODELS]
     st = res["settings"]
     L = [BEGIN, ""]
@@ -368,6 +406,7 @@ def build_page(res: dict, figure_rel: str) -> str:
         succ = ["" if s not in lv else f"{100 * lv[s]['success']:.0f}" for s in specs]
         rots = ["" if s not in lv else _rots(lv[s]["median_rot_deg"]) for s in specs]
         L.append(f"| {m} | " + " | ".join(succ) + " | " + " | ".join(rots) + " |")
+    L += [""] + targets_table(res, before, models)
     L += [
         "",
         "### Per corruption",
@@ -513,9 +552,13 @@ def draw_figure(res: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def write_page(res: dict, page: Path, figure: Path) -> None:
+def _before(path: Path | None) -> dict | None:
+    return json.loads(path.read_text()) if path is not None and path.is_file() else None
+
+
+def write_page(res: dict, page: Path, figure: Path, before: dict | None = None) -> None:
     rel = os.path.relpath(figure, page.parent)
-    block = build_page(res, rel)
+    block = build_page(res, rel, before)
     if page.exists():
         text = page.read_text()
         if BEGIN not in text or END not in text:
@@ -568,11 +611,17 @@ def main(argv=None) -> None:
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results_robustness.json")
     ap.add_argument("--page", type=Path, default=ROOT / "docs" / "robustness.md")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "images" / "robustness.png")
+    ap.add_argument(
+        "--before",
+        type=Path,
+        default=Path(__file__).parent / "results_robustness_before.json",
+        help="results of the same views with earlier models, for the page's goals table (skipped when absent)",
+    )
     ap.add_argument("--no-page", action="store_true", help="do not rebuild the page and the figure")
     ap.add_argument("--page-only", action="store_true", help="only rebuild the page and the figure from --out")
     args = ap.parse_args(argv)
     if args.page_only:
-        write_page(json.loads(args.out.read_text()), args.page, args.figure)
+        write_page(json.loads(args.out.read_text()), args.page, args.figure, _before(args.before))
         print(f"wrote {args.page} and {args.figure}")
         return
     unknown = [m for m in args.models if m not in MODELS]
@@ -620,7 +669,7 @@ def main(argv=None) -> None:
     args.out.write_text(json.dumps(res, separators=(",", ":")) + "\n")
     log(f"wrote {args.out} ({(time.perf_counter() - t0) / 60:.1f} min)")
     if not args.no_page:
-        write_page(res, args.page, args.figure)
+        write_page(res, args.page, args.figure, _before(args.before))
         log(f"wrote {args.page} and {args.figure}")
 
 
