@@ -326,7 +326,8 @@ def main() -> int:
         out += [
             f"### {cat}",
             "",
-            f"Parts: {', '.join(rep['part_names'])}; {rep['data']['num_samples']} test views. "
+            f"Parts: {', '.join(rep['part_names'])}; {rep['data']['num_samples']} test views "
+            f"(generator {rep['data'].get('generator_version', '?')}). "
             f"U-COPE trained with {training_line(rep) or 'see its model card'}.",
             "",
             "| method | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
@@ -491,6 +492,13 @@ def main() -> int:
                 "commands.",
                 "",
             ]
+        gens = {c: r["data"].get("generator_version", "?") for c, r in rigid.items()}
+        out += [
+            "Test views: "
+            + "; ".join(f"generator {g}: {', '.join(c for c in rigid if gens[c] == g)}" for g in sorted(set(gens.values())))
+            + " (the data sets' `generator_version`; the mAP tables pool every class's views).",
+            "",
+        ]
         lines = [training_line(r) for r in rigid.values()]
         if any(lines):
             out += ["Training: " + "; ".join(f"{c}: {line}" for c, line in zip(rigid, lines, strict=False) if line) + ".", ""]
