@@ -171,12 +171,13 @@ fi
 
 gen() {  # gen SPLIT NUM
   [ "$2" -gt 0 ] || return 0
-  local t0 t1
+  local t0 t1 what="views"
+  if [ -f "$WORK/data/$1/meta.json" ]; then what="views (the data set existed: resumed or only checked)"; fi
   t0=$(date +%s.%N)
   "$UCOPE" generate --spec "$WSPEC" --split "$1" --num "$2" --views-per-instance "$VIEWS_PER_INSTANCE" \
     --out "$WORK/data/$1" --workers "$WORKERS" --quiet
   t1=$(date +%s.%N)
-  say "data $1: $2 views, $(awk -v a="$t0" -v b="$t1" -v n="$2" 'BEGIN { printf "%.1f s (%.3f s per view, this call)", b - a, (b - a) / n }')"
+  say "data $1: $2 $what, $(awk -v a="$t0" -v b="$t1" -v n="$2" 'BEGIN { printf "%.1f s (%.3f s per view with the spec loading)", b - a, (b - a) / n }')"
 }
 
 if has_stage data; then
