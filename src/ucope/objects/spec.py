@@ -11,7 +11,10 @@ instance file (:mod:`ucope.objects.importers`) and returns an :class:`OwnCategor
 Instances and splits: every instance file is a shape family of the category; ``train``, ``val`` and
 ``test`` draw uniformly among the files not marked ``held_out``, ``ood`` among the held-out ones. Each
 drawn instance is scaled by a factor drawn log-uniformly in ``size_scale_range`` from the instance's own
-random stream (so instance ``i`` is the same on every machine).
+random stream (so instance ``i`` is the same on every machine). An instance entry may name its own links
+per part (``parts``: ``{part name: links}``) and its own file joint, sign and offset per category joint
+(``joints``: K-1 ``{joint, sign, offset}``; unit and range stay the category's), so files whose links and
+joints are named differently (robot arms of different makers) form one category.
 
 Every error is an :class:`~ucope.errors.InputError` naming the spec field (``joints[0].range``...) or the file
 and element; an object size outside ``size_range_m`` is a warning naming the file (millimetres are the usual
