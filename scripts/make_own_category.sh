@@ -61,6 +61,9 @@ pybullet-3.2.7 pybullet_data/kuka_iiwa/ pybullet_data/kuka_iiwa/
 pybullet-3.2.7 pybullet-3.2.7.dist-info/LICENSE.txt pybullet_data/"
     COPY=""
     HAS_OOD=1
+    # the held-out arm at its own size (the ood split's default 0.5-2x factor would mix an unseen arm with
+    # unseen sizes); the spec's x0.85-1.15 size augmentation still applies
+    OOD_ARGS="--scale 1"
     RECIPE="6000 8000 200 200 200"
     CATEGORY_ARGS="--size full --seg-weighting points --lambda-seg 1.0"
     ;;
@@ -71,6 +74,7 @@ pybullet-3.2.7 pybullet-3.2.7.dist-info/LICENSE.txt pybullet_data/"
 gymnasium_robotics-1.4.2 gymnasium_robotics-1.4.2.dist-info/licenses/ gymnasium_robotics/"
     COPY="examples/own_objects/household/microwave.xml"
     HAS_OOD=0
+    OOD_ARGS=""
     RECIPE="3000 4000 100 200 0"
     CATEGORY_ARGS=""
     ;;
@@ -169,13 +173,14 @@ if has_stage check; then
   (cd "$WORK" && "$UCOPE" categories --spec "$WSPEC")
 fi
 
-gen() {  # gen SPLIT NUM
+gen() {  # gen SPLIT NUM [extra generate options]
   [ "$2" -gt 0 ] || return 0
   local t0 t1 what="views"
   if [ -f "$WORK/data/$1/meta.json" ]; then what="views (the data set existed: resumed or only checked)"; fi
   t0=$(date +%s.%N)
+  # shellcheck disable=SC2086
   "$UCOPE" generate --spec "$WSPEC" --split "$1" --num "$2" --views-per-instance "$VIEWS_PER_INSTANCE" \
-    --out "$WORK/data/$1" --workers "$WORKERS" --quiet
+    --out "$WORK/data/$1" --workers "$WORKERS" --quiet ${3:-}
   t1=$(date +%s.%N)
   say "data $1: $2 $what, $(awk -v a="$t0" -v b="$t1" -v n="$2" 'BEGIN { printf "%.1f s (%.3f s per view with the spec loading)", b - a, (b - a) / n }')"
 }
@@ -184,7 +189,7 @@ if has_stage data; then
   gen train "$TRAIN_NUM"
   gen val "$VAL_NUM"
   gen test "$TEST_NUM"
-  if [ "$HAS_OOD" = 1 ]; then gen ood "$OOD_NUM"; fi
+  if [ "$HAS_OOD" = 1 ]; then gen ood "$OOD_NUM" "$OOD_ARGS"; fi
 fi
 
 RUN=$WORK/runs/$CATEGORY
