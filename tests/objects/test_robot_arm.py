@@ -188,3 +188,12 @@ def test_a_seven_joint_chain_generates_views_of_every_split(tmp_path):
             assert s["instance_id"].startswith(f"chain_arm/{split}/")
             labels = s["part_labels"][s["part_labels"] >= 0]
             assert len(np.unique(labels)) >= 4  # a standing arm seen from the side shows most of its links
+
+
+def test_categories_summary_names_each_files_own_links_and_joints(tmp_path):
+    from ucope.cli.main import _spec_summary
+
+    text = _spec_summary(load_spec(_chain_spec(tmp_path)))
+    assert "instance 001_b (held out: ood)" in text
+    assert "its links: base b_link0; link1 b_link1" in text
+    assert "its joints: b_joint1 (sign +1, offset 0); b_joint2 (sign -1, offset 0)" in text
