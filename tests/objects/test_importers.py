@@ -233,3 +233,25 @@ def test_canonical_frame_round_trip_against_the_file(tmp_path, sign, offset, sca
             # in its own frame the part fills its box: bounds = -size/2 .. +size/2 on every axis
             np.testing.assert_allclose(part.mesh.bounds, [-part.size_m / 2, part.size_m / 2], atol=1e-12)
     np.testing.assert_allclose(obj.parts[0].size_m, scale * np.array([0.4, 0.1, 0.3]), atol=1e-6)
+
+
+def test_mjcf_body_with_visual_geoms_leaves_out_its_collision_geoms(tmp_path):
+    """MuJoCo marks visual geoms with contype = conaffinity = 0: a body that has them is those geoms
+    only (its colliding boxes are its collision model); a body with colliding geoms only keeps them."""
+    pytest.importorskip("mujoco")
+    path = tmp_path / "vis.xml"
+    path.write_text(
+        """<mujoco><worldbody>
+          <body name="a">
+            <geom type="box" size="0.1 0.1 0.1" contype="0" conaffinity="0"/>
+            <geom type="box" size="0.3 0.3 0.3" group="3"/>
+            <body name="b" pos="0 0 0.5"><joint name="j" type="hinge" axis="1 0 0" range="0 1"/>
+              <geom type="box" size="0.05 0.05 0.05"/>
+            </body>
+          </body>
+        </worldbody></mujoco>"""
+    )
+    m = load_model(path)
+    assert len(m.links["a"]) == 1 and len(m.links["b"]) == 1
+    np.testing.assert_allclose(m.links["a"][0].extents, [0.2, 0.2, 0.2], atol=1e-9)
+    np.testing.assert_allclose(m.links["b"][0].extents, [0.1, 0.1, 0.1], atol=1e-9)

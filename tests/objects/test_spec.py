@@ -82,6 +82,15 @@ BAD = [
     ("instances.0.scale", 0, r"instances\[0\].scale: must be a positive number", True),
     ("instances.0.held_out", "yes", r"instances\[0\].held_out: must be true or false", True),
     ("instances.0.held_joints", [1], r"instances\[0\].held_joints: must map joint names", True),
+    ("instances.0.parts", [["base_link"]], r"instances\[0\].parts: must map part names", True),
+    ("instances.0.parts", {"hull": ["b"]}, r"instances\[0\].parts.hull: is not a part of the spec", False),
+    ("instances.0.parts", {"lid": []}, r"instances\[0\].parts.lid: must be a non-empty list", True),
+    ("instances.0.joints", [], r"instances\[0\].joints: must list this file's joint for each of the 1", False),
+    ("instances.0.joints", [{"sign": 1}], r"instances\[0\].joints\[0\]: must be an object with joint", True),
+    ("instances.0.joints", [{"joint": "h", "range": [0, 1]}], r"joints\[0\]: unknown field.*unit and range", True),
+    ("instances.0.joints", [{"joint": ""}], r"instances\[0\].joints\[0\].joint: must name a joint", True),
+    ("instances.0.joints", [{"joint": "h", "sign": 0}], r"instances\[0\].joints\[0\].sign: must be 1 or -1", True),
+    ("instances.0.joints", [{"joint": "h", "offset": "1"}], r"joints\[0\].offset: must be a finite number", True),
     ("mesh_search_path", "meshes", r"mesh_search_path: must be a list of folders", True),
     ("size_scale_range", [0, 2], r"size_scale_range: must be positive", False),
     ("size_range_m", [1], r"size_range_m: must be \[lower, upper\]", True),
@@ -275,3 +284,29 @@ def test_spawned_workers_write_the_same_spec_data_as_one_process(tmp_path):
     for i in range(8):
         for k in ("points", "part_labels", "cam_from_part", "size_m", "joint_state"):
             np.testing.assert_array_equal(one[i][k], two[i][k])
+
+
+def test_an_instance_names_its_own_links_and_joints(tmp_path):
+    """Files of one category whose links and joints are named differently: each instance entry maps
+    them (``parts``: its links per part; ``joints``: its joint, sign and offset per category joint)."""
+    a = write_two_link_urdf(tmp_path / "a")
+    b = tmp_path / "b" / "other.urdf"
+    write_two_link_urdf(tmp_path / "b")
+    text = (tmp_path / "b" / "two_link.urdf").read_text()
+    text = text.replace("base_link", "body").replace("lid_link", "flap").replace('"hinge"', '"flap_hinge"')
+    text = text.replace('<axis xyz="1 0 0"/>', '<axis xyz="-1 0 0"/>').replace('lower="0" upper="2.0"', 'lower="-2.0" upper="0"')
+    b.write_text(text)
+    own_b = {"parts": {"base": ["body"], "lid": ["flap"]}, "joints": [{"joint": "flap_hinge", "sign": -1}]}
+    doc = two_link_spec(a, instances=[{"file": str(a)}, {"file": str(b), **own_b}])
+    out = check_spec(doc)
+    assert out["instances"][1]["joints"] == [{"joint": "flap_hinge", "sign": -1}] and "parts" not in out["instances"][0]
+    own = load_spec(doc)
+    A, B = (own.objects[f] for f in own.families)
+    for q in (0.0, 0.7, 1.5):  # the same motion: the flipped axis and the sign cancel
+        np.testing.assert_allclose(A.object_from_part([q]), B.object_from_part([q]), atol=1e-9)
+    np.testing.assert_allclose(A.joints[0].axis, B.joints[0].axis, atol=1e-12)
+    with pytest.raises(InputError, match=r"part 'base' names link 'base_link', which the file lacks"):
+        load_spec(two_link_spec(a, instances=[{"file": str(b)}]))
+    bad = two_link_spec(a, instances=[{"file": str(b), **own_b, "joints": [{"joint": "flap_hinge"}]}])
+    with pytest.raises(InputError, match=r"sampled range .* is outside the file's limits"):
+        load_spec(bad)  # the category's sign +1 maps the file's -2..0 rad outside 0..100 deg

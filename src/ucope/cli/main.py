@@ -40,12 +40,21 @@ def _spec_summary(own) -> str:
             f"states [{js.limits[0]:.4g}, {js.limits[1]:.4g}] {unit} "
             f"(spec: {j['range']} {j['unit']}, sign {j['sign']:+d}, offset {j['offset']:g})"
         )
-    for fam in own.families:
+    from ..objects.spec import _expand_files
+
+    entries = [it for _, it in _expand_files(own.doc)]  # in the order of own.families
+    for fam, it in zip(own.families, entries, strict=True):
         o = own.objects[fam]
         lo, hi = o.bounds(o.rest_state)
         held = " (held out: ood)" if any(f.held_out for f in own.spec.shape_families if f.name == fam) else ""
         ext = np.round(100 * (hi - lo), 1).tolist()
         lines.append(f"  instance {fam}{held}: {o.params['source']}, rest-state extents {ext} cm")
+        if "parts" in it:
+            lines.append("    its links: " + "; ".join(f"{k} {v if v == '*' else ', '.join(v)}" for k, v in it["parts"].items()))
+        if "joints" in it:
+            js = [{**j, **e} for j, e in zip(own.doc["joints"], it["joints"], strict=True)]
+            named = [f"{j['joint']} (sign {j['sign']:+d}, offset {j['offset']:g})" for j in js]
+            lines.append("    its joints: " + "; ".join(named))
     return "\n".join(lines)
 
 

@@ -10,7 +10,9 @@ link frame, metres of the file) and every joint (type, parent and child link, pl
   search path (``DIR/PKG/...`` and ``DIR/...`` for a package path).
 * ``.xml`` / ``.mjcf``: through ``mujoco`` (extra ``mjcf``: ``pip install ucope[mjcf]``), from the compiled
   model (so MJCF angles in degrees are read in radians); bodies are links, the world body is link
-  ``"world"``; plane and height-field geoms are skipped.
+  ``"world"``; plane and height-field geoms are skipped. A body that has visual-only geoms
+  (``contype = conaffinity = 0``, MuJoCo's way to mark them) is its visual geoms only, its colliding
+  geoms being its collision model (as a URDF link's visual geometry wins over its collision geometry).
 * ``.obj``, ``.stl``, ``.ply``, ``.glb``, ``.gltf``, ``.off``, ``.dae``: one rigid link named ``"body"``.
 
 Joint types are ``revolute`` (a URDF ``continuous`` joint is a revolute one without limits), ``prismatic``
@@ -333,8 +335,13 @@ def load_mjcf(path: str | os.PathLike, search_path: Sequence[str | os.PathLike] 
         raise InputError(f"{path}: body names must be unique (unnamed bodies are called body<i>), got {names}")
     G = mujoco.mjtGeom
     links: dict[str, list[trimesh.Trimesh]] = {n: [] for n in names}
+    scenery = (int(G.mjGEOM_PLANE), int(G.mjGEOM_HFIELD), int(getattr(G, "mjGEOM_SDF", -1)))
+    visual_only = (np.asarray(m.geom_contype) == 0) & (np.asarray(m.geom_conaffinity) == 0)
+    bodies_with_visual = {int(m.geom_bodyid[g]) for g in range(m.ngeom) if visual_only[g] and int(m.geom_type[g]) not in scenery}
     for g in range(m.ngeom):
         t = int(m.geom_type[g])
+        if int(m.geom_bodyid[g]) in bodies_with_visual and not visual_only[g]:
+            continue  # a body with visual-only geoms: its colliding geoms are its collision model, not its surface
         body = names[int(m.geom_bodyid[g])]
         size = np.asarray(m.geom_size[g], dtype=np.float64)
         T = make_transform(_quat_matrix(m.geom_quat[g]), m.geom_pos[g])

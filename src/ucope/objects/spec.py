@@ -11,7 +11,10 @@ instance file (:mod:`ucope.objects.importers`) and returns an :class:`OwnCategor
 Instances and splits: every instance file is a shape family of the category; ``train``, ``val`` and
 ``test`` draw uniformly among the files not marked ``held_out``, ``ood`` among the held-out ones. Each
 drawn instance is scaled by a factor drawn log-uniformly in ``size_scale_range`` from the instance's own
-random stream (so instance ``i`` is the same on every machine).
+random stream (so instance ``i`` is the same on every machine). An instance entry may name its own links
+per part (``parts``: ``{part name: links}``) and its own file joint, sign and offset per category joint
+(``joints``: K-1 ``{joint, sign, offset}``; unit and range stay the category's), so files whose links and
+joints are named differently (robot arms of different makers) form one category.
 
 Every error is an :class:`~ucope.errors.InputError` naming the spec field (``joints[0].range``...) or the file
 and element; an object size outside ``size_range_m`` is a warning naming the file (millimetres are the usual
@@ -233,7 +236,7 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
         f = f"instances[{k}]"
         if not isinstance(it, Mapping) or "file" not in it:
             raise _fail(f, "must be an object with a file")
-        bad = sorted(set(it) - {"file", "rotation", "scale", "held_out", "held_joints"})
+        bad = sorted(set(it) - {"file", "rotation", "scale", "held_out", "held_joints", "parts", "joints"})
         if bad:
             raise _fail(f, f"unknown field(s) {bad}")
         if not isinstance(it["file"], str) or not it["file"]:
@@ -252,6 +255,10 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
             raise _fail(f"{f}.held_out", f"must be true or false, got {ho!r}")
         entry["held_out"] = ho
         entry["held_joints"] = _held(it.get("held_joints", {}), f"{f}.held_joints")
+        if "parts" in it:
+            entry["parts"] = _instance_parts(it["parts"], pnames, f"{f}.parts")
+        if "joints" in it:
+            entry["joints"] = _instance_joints(it["joints"], len(out["joints"]), f"{f}.joints")
         out["instances"].append(entry)
     sp = doc.get("mesh_search_path", [])
     if not isinstance(sp, list) or not all(isinstance(x, str) for x in sp):
@@ -271,6 +278,53 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
     if not -90.0 <= out["camera"]["elevation_range_deg"][0] <= out["camera"]["elevation_range_deg"][1] <= 90.0:
         raise _fail("camera.elevation_range_deg", "must lie within [-90, 90] degrees")
     out["base_dir"] = str(doc.get("base_dir", "."))
+    return out
+
+
+def _instance_parts(v: Any, pnames: list[str], field: str) -> dict[str, Any]:
+    """An instance's own link names per part: ``{part name: links or "*"}`` (parts not named keep the
+    spec's links)."""
+    if not isinstance(v, Mapping) or not v:
+        raise _fail(field, f"must map part names to this file's link lists (or '*'), got {v!r}")
+    out = {}
+    for name, links in v.items():
+        if name not in pnames:
+            raise _fail(f"{field}.{name}", f"is not a part of the spec; the parts are {pnames}")
+        if links != "*" and not (isinstance(links, list) and links and all(isinstance(x, str) and x for x in links)):
+            raise _fail(f"{field}.{name}", f"must be a non-empty list of link / body names, or '*', got {links!r}")
+        out[name] = links
+    return out
+
+
+def _instance_joints(v: Any, n: int, field: str) -> list[dict[str, Any]]:
+    """An instance's own file joints for the ``n`` category joints: a list of ``n`` objects
+    ``{joint, sign, offset}`` (``sign`` / ``offset`` not given: the category joint's)."""
+    if not isinstance(v, list) or len(v) != n:
+        raise _fail(field, f"must list this file's joint for each of the {n} category joints, got {v!r}")
+    out = []
+    for i, j in enumerate(v):
+        f = f"{field}[{i}]"
+        if not isinstance(j, Mapping) or "joint" not in j:
+            raise _fail(f, "must be an object with joint (and optionally sign, offset)")
+        bad = sorted(set(j) - {"joint", "sign", "offset"})
+        if bad:
+            raise _fail(f, f"unknown field(s) {bad}; unit and range are the category joint's")
+        if not isinstance(j["joint"], str) or not j["joint"]:
+            raise _fail(f"{f}.joint", f"must name a joint of the file, got {j['joint']!r}")
+        e: dict[str, Any] = {"joint": j["joint"]}
+        if "sign" in j:
+            if j["sign"] not in (1, -1) or isinstance(j["sign"], bool):
+                raise _fail(f"{f}.sign", f"must be 1 or -1, got {j['sign']!r}")
+            e["sign"] = int(j["sign"])
+        if "offset" in j:
+            o = j["offset"]
+            if not isinstance(o, int | float) or isinstance(o, bool) or not math.isfinite(o):
+                raise _fail(f"{f}.offset", f"must be a finite number, got {o!r}")
+            e["offset"] = float(o)
+        out.append(e)
+    names = [e["joint"] for e in out]
+    if len(set(names)) != len(names):
+        raise _fail(field, f"joint names must be unique, got {names}")
     return out
 
 
@@ -334,7 +388,6 @@ def load_spec(spec: str | os.PathLike | Mapping[str, Any]) -> OwnCategory:
     base = Path(doc["base_dir"])
     search = [Path(s) if Path(s).is_absolute() else base / s for s in doc["mesh_search_path"]]
     files = _expand_files(doc)
-    parts = [(p["name"], p["links"], p["symmetry"]) for p in doc["parts"]]
     objects: dict[str, ArticulatedObject] = {}
     families = []
     for n, (path, it) in enumerate(files):
@@ -342,9 +395,12 @@ def load_spec(spec: str | os.PathLike | Mapping[str, Any]) -> OwnCategory:
         model = load_model(path, search)
         default_rule = "identity" if path.suffix.lower() not in (".urdf", ".xml", ".mjcf") else "z_up"
         R = _rotation(it.get("rotation", default_rule), f"instances[{doc['instances'].index(it)}].rotation")
+        own_links = it.get("parts", {})
+        parts = [(p["name"], own_links.get(p["name"], p["links"]), p["symmetry"]) for p in doc["parts"]]
         mappings = []
         for i, j in enumerate(doc["joints"]):
             kind, f = _UNITS[j["unit"]]
+            j = {**j, **it["joints"][i]} if "joints" in it else j  # the file's own name, sign and offset
             src = model.joints.get(j["joint"])
             if src is not None and src.type in ("revolute", "prismatic") and src.type != kind:
                 raise _fail(
