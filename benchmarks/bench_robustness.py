@@ -100,13 +100,14 @@ def score(result, sample: dict, src: np.ndarray, category: str, symmetry: tuple[
         )
         if not handle:
             sym = ["y"]
-    rot, trans, rel, scores, change = [], [], [], [], []
+    rot, trans, rel, scores, vote, change = [], [], [], [], [], []
     for k, part in enumerate(result.parts):
         T, Tg = np.asarray(part.cam_from_part, np.float64), np.asarray(sample["cam_from_part"][k], np.float64)
         rot.append(rotation_error_deg(T[:3, :3], Tg[:3, :3], sym[k]))
         trans.append(translation_error_m(T[:3, 3], Tg[:3, 3]))
         rel.append(trans[-1] / float(np.linalg.norm(sample["size_m"][k])))
         scores.append(float(part.score))
+        vote.append(float(part.vote_score) if part.vote_score is not None else float(part.score))
         if clean is not None:
             change.append(rotation_error_deg(T[:3, :3], np.asarray(clean.parts[k].cam_from_part)[:3, :3], sym[k]))
     ok = all(r < ROT_DEG and t < TRANS_REL for r, t in zip(rot, rel, strict=False))
@@ -116,6 +117,7 @@ def score(result, sample: dict, src: np.ndarray, category: str, symmetry: tuple[
         "trans_m": trans,
         "trans_norm": rel,
         "score": scores,
+        "vote_score": vote,
         "success": ok,
         "success_10cm": ok_cm,
         "rot_change_deg": change if clean is not None else None,
@@ -472,21 +474,24 @@ def build_page(res: dict, figure_rel: str, before: dict | None = None) -> str:
         "every view of every level above (clean and corrupted); goal >= 0.85. The threshold is the model card's "
         "(`info.calibration.threshold`); below it `predict` warns.",
         "",
-        "| model | views | success | AUROC | calibrated |",
-        "|---|---|---|---|---|",
+        "| model | views | success | AUROC | calibrated | AUROC of the raw vote score |",
+        "|---|---|---|---|---|---|",
     ]
     for m in models:
-        sc, ok = [], []
+        sc, vs, ok = [], [], []
         for v in res["models"][m]["levels"].values():
-            for score, good, err in zip(v["views"]["score"], v["views"]["success"], v["views"]["error"], strict=True):
+            raw = v["views"].get("vote_score") or [None] * len(v["views"]["score"])
+            for score, vote, good, err in zip(v["views"]["score"], raw, v["views"]["success"], v["views"]["error"], strict=True):
                 if not err and score:
                     sc.append(min(score))
+                    vs.append(None if vote is None else min(vote))
                     ok.append(bool(good))
         a = auroc(np.array(sc), np.array(ok)) if sc else None
+        b = auroc(np.array(vs, np.float64), np.array(ok)) if vs and None not in vs else None
         cal = res["models"][m].get("calibrated")
         L.append(
             f"| {m} | {len(sc)} | {100 * np.mean(ok):.0f} % | {'-' if a is None else f'{a:.3f}'} | "
-            f"{'-' if cal is None else ('yes' if cal else 'no')} |"
+            f"{'-' if cal is None else ('yes' if cal else 'no')} | {'-' if b is None else f'{b:.3f}'} |"
         )
     L.append("")
     errs = [
