@@ -86,7 +86,7 @@ def set_defaults(info: dict, reports: Path, cat: str) -> None:
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``."""
-    from ucope.data.shards import atomic_write_json
+    from ucope.fileio import atomic_write_json
 
     for cat in cats:
         rep = json.loads((reports / f"{cat}.json").read_text())
