@@ -287,3 +287,23 @@ def test_fine_tuning_with_new_priors_keeps_the_weights_and_measures_the_statisti
     assert tuned.cfg.priors != base.cfg.priors and tuned.cfg.priors.num_samples > 0
     for (k, a), b in zip(base.state_dict().items(), tuned.state_dict().values(), strict=False):
         assert torch.allclose(a, b, atol=1e-6), k
+
+
+def test_a_voting_model_starts_the_regression_baseline_with_its_encoder(tmp_path):
+    """``--init MODEL --head regression``: the baseline gets the voting model's encoder, segmentation and
+    joint heads (so the two heads are compared on one encoder and budget); only the pose heads start fresh."""
+    train(tiny_train_config(tmp_path / "base", steps=2))
+    base, _ = load_model(tmp_path / "base")
+    card = train(
+        tiny_train_config(
+            tmp_path / "reg", steps=1, lr=1e-12, init_from=str(tmp_path / "base"), model_overrides=dict(TINY, head="regression")
+        )
+    )
+    reg, _ = load_model(tmp_path / "reg")
+    assert reg.cfg.head == "regression" and base.cfg.head == "voting"
+    fresh = card["initialised_from"]["reinitialised"]
+    assert fresh and all(k.startswith("reg_") for k in fresh)
+    shared = {k: v for k, v in base.state_dict().items() if not k.startswith("pair_")}
+    got = reg.state_dict()
+    for k, v in shared.items():
+        assert torch.allclose(got[k], v, atol=1e-6), k

@@ -93,7 +93,8 @@ class TrainConfig:
             a run folder or a model JSON: fine-tuning) instead of random ones. The network (its
             architecture, bins and the category statistics its outputs are relative to) is that
             model's; ``model_overrides`` may only change the training settings among its fields
-            (``pairs_per_part``, ``lambda_*``, ``seg_weighting``). The optimiser and the learning-rate
+            (``pairs_per_part``, ``lambda_*``, ``seg_weighting``, ``background_class``) and ``head``
+            (a voting model starting the regression baseline: its pose heads start fresh). The optimiser and the learning-rate
             schedule start afresh. Ignored on ``resume`` (the checkpoint holds the weights).
         new_priors: with ``init_from``, measure the category priors (vote ranges, sizes, templates...) on
             this run's training data instead of keeping the initial model's (the data spans other sizes);
@@ -378,7 +379,19 @@ def train(tc: TrainConfig, on_step: Callable[[int], None] | None = None) -> dict
         dd.close()
 
 
-_FINE_TUNE_FIELDS = ("pairs_per_part", "lambda_seg", "lambda_joint", "lambda_pose", "seg_weighting", "background_class")
+_FINE_TUNE_FIELDS = (
+    "pairs_per_part",
+    "lambda_seg",
+    "lambda_joint",
+    "lambda_pose",
+    "seg_weighting",
+    "background_class",
+    "head",
+)
+"""Model fields a fine-tuning (``--init``) may change. ``head``: a voting model may start the
+direct-regression baseline (the encoder, segmentation and joint heads are copied, the pose heads start
+fresh and are listed in the model card's ``reinitialised``), so that the two heads can be compared on
+the same encoder and training budget."""
 
 
 def _init_config(tc: TrainConfig) -> tuple[ModelConfig, torch.nn.Module]:
