@@ -13,7 +13,7 @@ from .joints import vote_joints
 from .kinematic import ShapeIndex, clamp_joint_states, kinematic_refine, resolve_joint_flips, resolve_shape_flips
 from .part import VotingOptions, vote_parts
 
-__all__ = ["vote_object", "regressed_object"]
+__all__ = ["vote_object", "regressed_object", "regression_scores"]
 
 
 def vote_object(
@@ -72,6 +72,49 @@ def vote_object(
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
+REGRESSION_BOX_MARGIN = 0.55
+"""A point fits its part's box when each of its coordinates in the part frame lies within this fraction
+of the box's size (a half plus 10 % of slack for depth noise)."""
+
+
+def regression_scores(
+    points: np.ndarray, seg_prob: np.ndarray | None, cam_from_part: np.ndarray, size_m: np.ndarray
+) -> np.ndarray:
+    """``(K,)`` scores in ``[0, 1]`` of regressed part poses: the mean segmentation probability of the
+    points segmented as part ``k`` times the fraction of those points that lie inside part ``k``'s
+    regressed box (see :data:`REGRESSION_BOX_MARGIN`). A part with no points scores 0.
+
+    This is what a direct regression can say about itself without votes: whether the network is sure
+    which points are the part, and whether its box agrees with them. A rotation about an axis the box
+    is nearly symmetric about (the mug's handle side) is not seen by the second factor.
+
+    Args:
+        points: ``(P, 3)`` the network's points (camera frame, metres).
+        seg_prob: ``(P, C)`` class probabilities, ``C >= K`` (a background class last), or ``None``
+            (one part without segmentation: every point is the part's, probability 1).
+        cam_from_part: ``(K, 4, 4)`` regressed poses.
+        size_m: ``(K, 3)`` regressed box sizes.
+    """
+    T = np.asarray(cam_from_part, np.float64)
+    S = np.asarray(size_m, np.float64)
+    K = len(T)
+    P = len(points)
+    if seg_prob is None:
+        labels, conf = np.zeros(P, np.int64), np.ones(P)
+    else:
+        labels = seg_prob.argmax(-1)
+        conf = seg_prob[np.arange(P), labels]
+    scores = np.zeros(K)
+    for k in range(K):  # a handful of parts; vectorised over points
+        mine = labels == k
+        if not mine.any():
+            continue
+        local = (points[mine] - T[k, :3, 3]) @ T[k, :3, :3]
+        inside = np.all(np.abs(local) <= REGRESSION_BOX_MARGIN * S[k] + 1e-3, axis=1)
+        scores[k] = float(conf[mine].mean() * inside.mean())
+    return scores
+
+
 def regressed_object(
     points,
     outputs: Mapping[str, Any],
@@ -82,18 +125,22 @@ def regressed_object(
 ) -> dict[str, Any]:
     """The same dict as :func:`vote_object` for the direct-regression baseline
     (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
-    ``(1, K, 3, 3)``, ``centre_m`` ``(1, K, 3)`` and ``gamma`` ``(1, K, 3)`` outputs (score 1, no
-    pairs), joints and joint states exactly as for U-COPE."""
+    ``(1, K, 3, 3)``, ``centre_m`` ``(1, K, 3)`` and ``gamma`` ``(1, K, 3)`` outputs (no pairs),
+    joints and joint states exactly as for U-COPE. The part scores are :func:`regression_scores`
+    (the baseline has no votes to count)."""
     K = priors.num_parts
     R = outputs["rotation"].reshape(K, 3, 3).double().cpu().numpy()
     t = outputs["centre_m"].reshape(K, 3).double().cpu().numpy()
     gamma = outputs["gamma"].reshape(K, 3).double().cpu().numpy()
     T = np.tile(np.eye(4), (K, 1, 1))
     T[:, :3, :3], T[:, :3, 3] = R, t
+    size = np.exp(gamma) * priors.mean_size_m
+    seg = outputs.get("seg_logits")
+    prob = seg.reshape(-1, seg.shape[-1]).double().softmax(-1).cpu().numpy() if seg is not None else None
     out = {
         "cam_from_part": T,
-        "size_m": np.exp(gamma) * priors.mean_size_m,
-        "score": np.ones(K),
+        "size_m": size,
+        "score": regression_scores(np.asarray(points, np.float64), prob, T, size),
         "num_pairs": np.zeros(K, dtype=np.int64),
     }
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
