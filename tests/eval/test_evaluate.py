@@ -222,10 +222,17 @@ def test_cli_eval_writes_a_report_and_prints_the_table(tmp_path, capsys, head):
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["head"] == head and rep["data"]["num_samples"] == 2 and rep["settings"]["num_pairs"] == 500
     assert rep["command"].startswith("ucope eval --model") and len(rep["samples"]) == 2
+    assert rep["settings"]["score_filter"] and rep["settings"]["segment_pairs"] and rep["settings"]["vote_caps"]
     assert (
         main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.json")])
         == 2
     )
+    if head == "voting":  # the Table 3 switches are recorded, one by one
+        argv = ["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "data"), "--num", "1", "--pairs", "500"]
+        argv += ["--quiet", "--out", str(tmp_path / "a.json"), "--no-vote-caps", "--no-score-filter", "--pairs-from-cloud"]
+        assert main(argv) == 0
+        st = json.loads((tmp_path / "a.json").read_text())["settings"]
+        assert not st["vote_caps"] and not st["score_filter"] and not st["segment_pairs"] and st["awareness"]
 
 
 def test_view_bins_follow_the_camera_yaw_about_the_object():

@@ -290,3 +290,16 @@ def test_thin_parts_snap_to_their_visible_face(rng):
     assert float((fixed - centre).norm()) < 0.001
     assert torch.equal(snap_to_visible_face(wrong, R, np.array([0.3, 0.1, 0.2]), face, 0.25, False), wrong)  # not thin
     assert torch.equal(snap_to_visible_face(wrong, R, np.array([0.008, 0.3, 0.2]), face, 0.25, True), wrong)  # symmetric, thin x
+
+
+def test_uncapped_options_let_every_pair_vote_and_still_recover_the_pose(rng):
+    """``VotingOptions.uncapped()`` (the pairs ablation without caps): with 6,000 pairs, above every default
+    cap, the pose is as exact as with the caps."""
+    assert VotingOptions().capped and not VotingOptions.uncapped().capped
+    assert VotingOptions.uncapped(score_threshold=0.3).score_threshold == 0.3
+    T, size = random_part(rng)
+    a, b, n, h, V = synthetic_heads(rng, T, size, size, 6000, outlier_frac=0.2)
+    for opt in (VotingOptions(), VotingOptions.uncapped()):
+        r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, options=opt)
+        _check_pose(r, T, size, V, False)
+        assert r.num_pairs == 6000

@@ -289,7 +289,17 @@ def _estimator(args: argparse.Namespace):
         segment_pairs=False if args.pairs_from_cloud else None,
         rescale=not args.no_rescale,
         remove_plane=args.remove_plane,
+        options=_voting_options(args),
     )
+
+
+def _voting_options(args: argparse.Namespace):
+    """The voting options the flags ask for (``None``: the defaults)."""
+    if not getattr(args, "no_vote_caps", False):
+        return None
+    from ..voting import VotingOptions
+
+    return VotingOptions.uncapped()
 
 
 def _expand_inputs(spec: str) -> list[Path]:
@@ -505,6 +515,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "--pairs-from-cloud",
         action="store_true",
         help="draw each part's pairs from the whole cloud, not from the points segmented as that part (ablation)",
+    )
+    p.add_argument(
+        "--no-vote-caps",
+        action="store_true",
+        help="every pair votes the axes and the centre grid (ablation; default: evenly strided subsets of at most "
+        "1,024 pairs per part vote the axes and 4,096 the centre grid, which is as accurate and faster)",
     )
     p.add_argument(
         "--keep-flips",

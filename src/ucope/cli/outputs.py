@@ -176,6 +176,7 @@ def predict_instances(args: argparse.Namespace) -> int:
     """``ucope predict --instances ID=MODEL ... --depth D --mask M --intrinsics K``: one JSON for all."""
     from ..data.io import read_depth_png, read_intrinsics
     from ..estimation.frame import parse_instance_models, predict_frame
+    from ..voting import VotingOptions
 
     if args.depth is None or args.mask is None or args.intrinsics is None:
         raise UcopeError("--instances needs --depth D.png, --mask INSTANCES.png and --intrinsics K.json")
@@ -194,6 +195,7 @@ def predict_instances(args: argparse.Namespace) -> int:
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,
+        options=VotingOptions.uncapped() if args.no_vote_caps else None,
     )
     fr = predict_frame(
         depth,

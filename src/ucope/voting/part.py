@@ -96,6 +96,33 @@ class VotingOptions:
     rotation_iters: int = 4
     thin_snap_ratio: float = 0.25
 
+    @classmethod
+    def uncapped(cls, **kw) -> VotingOptions:
+        """Options under which every voting pair casts every vote (ablation): no strided subsets for the
+        axes (``max_axis_pairs``, the axis vote's ``max_coarse_pairs`` / ``max_refine_pairs``) or for the
+        centre grid and refinement (``max_grid_pairs`` / ``max_refine_pairs``). Time grows about
+        linearly with the pairs; the defaults cap them at 1,024 (axes) and 4,096 / 1,024 (centre)."""
+        big = 2**31 - 1
+        return cls(
+            centre=CentreOptions(max_grid_pairs=big, max_refine_pairs=big),
+            axis=AxisOptions(max_coarse_pairs=big, max_refine_pairs=big),
+            max_axis_pairs=big,
+            **kw,
+        )
+
+    @property
+    def capped(self) -> bool:
+        """Whether some vote runs on a strided subset of the pairs when there are many (the defaults)."""
+        big = 2**31 - 1
+        caps = (
+            self.max_axis_pairs,
+            self.centre.max_grid_pairs,
+            self.centre.max_refine_pairs,
+            self.axis.max_coarse_pairs,
+            self.axis.max_refine_pairs,
+        )
+        return min(caps) < big
+
     def __post_init__(self) -> None:
         if not 0.0 <= self.score_threshold < 1.0:
             raise InputError(f"score_threshold must be in [0, 1), got {self.score_threshold}")
