@@ -224,6 +224,11 @@ def test_summarize_parts():
     assert s["fraction"]["10deg10cm"] == pytest.approx([1.0, 1 / 3])
     assert s["fraction"]["iou50"] == pytest.approx([1.0, 1 / 3])
     assert s["fraction"]["iou75"] == pytest.approx([2 / 3, 0.0])
+    # rotation alone: 6 deg passes 10 deg though its 2 cm would not matter either way; part 1's 4 deg passes 5 deg
+    assert s["fraction"]["5deg"] == pytest.approx([2 / 3, 1 / 3])
+    assert s["fraction"]["10deg"] == pytest.approx([1.0, 1 / 3])
+    far = summarize_parts([[e(3.0, 0.5, 0.1)]])  # right rotation, far centre: passes on rotation only
+    assert far["fraction"]["5deg"] == [1.0] and far["fraction"]["5deg5cm"] == [0.0]
     with pytest.raises(InputError, match="same number"):
         summarize_parts([[e(1, 0.1, 0.5)], [e(1, 0.1, 0.5), e(1, 0.1, 0.5)]])
 

@@ -487,6 +487,7 @@ def summarize_parts(
     samples: Sequence[Sequence[Mapping | None]],
     pose_thresholds_deg_m: Sequence[tuple[float, float]] = ((5, 0.05), (10, 0.10)),
     iou_thresholds: Sequence[float] = (0.5, 0.75),
+    rotation_thresholds_deg: Sequence[float] = (5, 10),
 ) -> dict:
     """Per-part mean / median errors and success fractions over samples (Table-2-shaped).
 
@@ -498,6 +499,8 @@ def summarize_parts(
         pose_thresholds_deg_m: ``(degrees, metres)`` pairs; a part passes if its rotation error is
             ``<= degrees`` and its translation error ``<= metres``.  Named ``5deg5cm``, ``10deg10cm``.
         iou_thresholds: a part passes if its IoU is ``>= t``; named ``iou50``, ``iou75``.
+        rotation_thresholds_deg: a part passes if its rotation error is ``<= degrees`` (translation
+            not looked at); named ``5deg``, ``10deg``.
 
     Returns:
         A JSON-friendly dict; every leaf list has one entry per part (like the paper's Table 2 cells)::
@@ -505,7 +508,8 @@ def summarize_parts(
             {"num_samples": N, "num_parts": K, "num_missing": [K ints],
              "rotation_deg": {"mean": [K], "median": [K]}, "translation_m": {...},
              "translation_norm": {...}, "iou": {...},      # IoU as a fraction in [0, 1]
-             "fraction": {"5deg5cm": [K], "10deg10cm": [K], "iou50": [K], "iou75": [K]}}
+             "fraction": {"5deg5cm": [K], "10deg10cm": [K], "iou50": [K], "iou75": [K],
+                          "5deg": [K], "10deg": [K]}}
 
         Means / medians are ``None`` for a part with no valid value.
     """
@@ -539,6 +543,9 @@ def summarize_parts(
     for t in iou_thresholds:
         t = check_scalar(t, "iou threshold")
         fraction[f"iou{round(t * 100):d}"] = [sum(1 for v in cols["iou"][j] if v is not None and v >= t) / n for j in range(k)]
+    for deg in rotation_thresholds_deg:
+        deg = check_scalar(deg, "rotation threshold (deg)")
+        fraction[f"{deg:g}deg"] = [sum(1 for v in cols["rotation_deg"][j] if v is not None and v <= deg) / n for j in range(k)]
     out["fraction"] = fraction
     return out
 
