@@ -59,6 +59,26 @@ def test_pool_points_at_the_camera_are_left_out_and_never_crash_the_noise(sample
         assert np.all(p[:, 2] > 0.0)
 
 
+def test_outliers_of_a_near_object_behind_the_camera_are_dropped_before_the_axial_noise(sample):
+    """A drawer training run died at step 0-50: the 1.5x box of a large cabinet seen from near by reaches
+    behind the camera, and the axial noise refuses a cloud with points at z <= 0."""
+    near = dict(sample)
+    shift = np.array([0.0, 0.0, 0.08 - float(np.min(sample["points"][:, 2]))])  # nearest object point at 8 cm
+    near["points"] = (sample["points"] + shift).astype(np.float32)
+    T = np.array(sample["cam_from_part"], np.float64)
+    T[:, :3, 3] += shift
+    near["cam_from_part"] = T
+    near["size_m"] = np.asarray(sample["size_m"]) * 3.0  # a box far deeper than the visible points
+    cfg = AugmentConfig(
+        probability=1.0, p_occlude=0, p_bleed=0, p_floor=0, p_outliers=1.0, outlier_range=(0.2, 0.2),
+        p_noise=0, p_axial=1.0, p_resample=0,
+    )  # fmt: skip
+    for seed in range(5):
+        p, lab, done = augment_sample(near, np.random.default_rng(seed), cfg)
+        assert done and np.all(p[:, 2] > 0.0) and len(p) == len(lab)
+        assert np.count_nonzero(lab >= 0) == len(sample["points"])  # the object's own points are all kept
+
+
 def test_bad_settings_are_named():
     with pytest.raises(InputError, match="p_floor"):
         AugmentConfig(p_floor=1.5)

@@ -86,7 +86,8 @@ class AugmentConfig:
 MIN_DEPTH_M = 0.05
 """Background points nearer the camera than this are left out of the pool (no depth sensor returns them;
 generator-2 pools hold a few at 1 mm, the noise model's quantisation floor, which further noise can push
-behind the camera)."""
+behind the camera), and so are any points of the corrupted cloud before the axial noise (the outliers of
+a large object seen from near by fill a box that reaches behind the camera)."""
 
 
 def sample_context(sample: dict) -> CorruptionContext:
@@ -145,6 +146,9 @@ def augment_sample(
         pts, lab = add_outliers(pts, lab, rng.uniform(*c.outlier_range), rng, ctx)
     if u[4] < c.p_noise:
         pts, lab = isotropic_noise(pts, lab, rng.uniform(*c.noise_m), rng, ctx)
+    near = np.asarray(pts)[:, 2] < MIN_DEPTH_M  # no sensor returns these; outliers of a big, near object can lie there
+    if near.any():
+        pts, lab = np.asarray(pts)[~near], np.asarray(lab)[~near]
     if u[5] < c.p_axial:
         pts, lab = axial_noise(pts, lab, rng.uniform(*c.axial_factor), rng, ctx)
     if u[6] < c.p_resample:
