@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -92,3 +94,50 @@ def test_a_fine_tuned_model_lists_every_training_stage(tmp_path):
     assert "stages" not in mr.training_info(base) and mr.training_line({"training": mr.training_info(base)}).startswith(
         "4000 steps"
     )
+
+
+def _fake_report(rot, data_path="d/eyeglasses_test", generator="2", parts=("frame",), **extra):
+    k = len(parts)
+    stat = {"mean": [rot] * k, "median": [rot / 2] * k}
+    rep = {
+        "part_names": list(parts),
+        "data": {"generator_version": generator, "split": "test", "seed": 0, "num_samples": 10, "path": data_path},
+        "parts": {
+            "rotation_deg": stat,
+            "translation_m": {"mean": [0.01] * k, "median": [0.005] * k},
+            "iou": {"mean": [0.5] * k, "median": [0.6] * k},
+            "fraction": {"10deg10cm": [0.9] * k, "5deg": [0.7] * k, "10deg": [0.95] * k},
+        },
+        "time_ms": {"mean": {"total": 50.0}, "median": {"total": 40.0}},
+        "success": {"fraction": 0.8},
+        "joints": None,
+        "command": f"ucope eval --rot {rot}",
+    }
+    rep.update(extra)
+    return rep
+
+
+def test_table3_rows_must_share_one_test_set_and_list_each_command_once(tmp_path):
+    mr = _make_results_module()
+    for name in ("eyeglasses_t3_pairs20000", "eyeglasses_t3_pairs20000_nocaps", "eyeglasses_t3_no_score_filter"):
+        (tmp_path / f"{name}.json").write_text(json.dumps(_fake_report(len(name))))
+    lines = mr.table3_section(tmp_path)
+    text = "\n".join(lines)
+    assert "20,000 pairs (ours, caps)" in text and "20,000 pairs (ours, no caps)" in text
+    assert "pairs from the predicted segment, score filter off" in text
+    cmds = [ln for ln in lines if ln.startswith("Commands:")][0]
+    assert cmds.count("ucope eval --rot 24") == 1  # pairs20000 is in both tables, its command once
+    (tmp_path / "eyeglasses_t3_no_awareness.json").write_text(json.dumps(_fake_report(9.0, data_path="other/eyeglasses_test2")))
+    with pytest.raises(SystemExit, match="one test set"):
+        mr.table3_section(tmp_path)
+
+
+def test_voting_is_compared_with_regression_only_on_the_same_views(tmp_path):
+    mr = _make_results_module()
+    (tmp_path / "mug.json").write_text(json.dumps(_fake_report(4.0, data_path="g1/mug_test", generator="1")))
+    (tmp_path / "mug_regression.json").write_text(json.dumps(_fake_report(5.0, data_path="g2/mug_test")))
+    assert any(ln.startswith("Not compared: mug") for ln in mr.voting_vs_regression_section(tmp_path))
+    (tmp_path / "mug_voting.json").write_text(json.dumps(_fake_report(3.0, data_path="g2/mug_test")))
+    text = "\n".join(mr.voting_vs_regression_section(tmp_path))
+    assert "| mug (10) | voting (U-COPE) | 3.0 |" in text and "| mug (10) | regression | 5.0 |" in text
+    assert "| mug (10) | regression, *median* | 2.5 |" in text
