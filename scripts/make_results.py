@@ -479,8 +479,8 @@ def main() -> int:
         "parts, and mugs whose handle is not visible: angle between the y axes), translation in metres (box centre distance), "
         "3D IoU of the amodal boxes in percent computed **exactly** for oriented boxes (not what NOCS's evaluation code "
         "computes, see [metrics.md](metrics.md)); `10deg10cm` is the percentage of test views with rotation <= 10 deg and "
-        "translation <= 10 cm; time is the wall time of `Estimator.predict` per object, in seconds. The ablation and "
-        "refinement tables show means.",
+        "translation <= 10 cm; time is the wall time of `Estimator.predict` per object, in seconds. The refinement "
+        "table shows means, the ablation table means with the rotation's median in brackets.",
         "",
     ]
 
