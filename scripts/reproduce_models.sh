@@ -17,7 +17,7 @@
 # Not yet here: the robustness fine-tuning of 2026-12-03 that the shipped mug, camera, laptop, bowl,
 # bottle, can, laptop_rigid and scissors models went through (3,000 steps with `--init <model>
 # --new-priors --augment 0.65` on 5,000 generator-2 views, then scripts/calibrate_scores.py, and
-# package_models.py --remove-plane for the rigid five but laptop_rigid); docs/results.md's notes give
+# package_models.py --remove-plane for mug, bowl, bottle, camera and can); docs/results.md's notes give
 # the exact commands. This script makes the models before that stage.
 set -euo pipefail
 cd "$(dirname "$0")/.."
