@@ -127,9 +127,13 @@ def main(argv=None) -> None:
         meta.setdefault("info", {})["calibration"] = cal
         atomic_write_json(path, meta)
         i = cal["info"]
+
+        def auc(v):  # None when every view succeeded or every view failed
+            return "n/a" if v is None else f"{v:.3f}"
+
         print(
-            f"{m}: {i['views']} views, object success {i['object_success_rate']:.2f}, AUROC object {i['auroc_object_fit']:.3f} "
-            f"(vote score alone {i['auroc_object_vote_score']:.3f}), threshold {cal['threshold']:.3f}, {i['seconds']:.0f} s -> "
+            f"{m}: {i['views']} views, object success {i['object_success_rate']:.2f}, AUROC object {auc(i['auroc_object_fit'])} "
+            f"(vote score alone {auc(i['auroc_object_vote_score'])}), threshold {cal['threshold']:.3f}, {i['seconds']:.0f} s -> "
             f"{path}"
         )
         print(json.dumps({k: cal[k] for k in ("coef", "part_bias", "threshold")}))
