@@ -97,6 +97,16 @@ def _fail(field: str, msg: str) -> InputError:
     return InputError(f"category spec: {field}: {msg}")
 
 
+def _check_entry(field: str, value, required: tuple[str, ...], allowed: set[str], need: str, hint: str = "") -> None:
+    """``value`` must be a mapping holding ``required`` and no key outside ``allowed``; else an
+    :class:`InputError` naming ``field`` (``need`` says what it must hold, ``hint`` follows the unknown keys)."""
+    if not isinstance(value, Mapping) or any(k not in value for k in required):
+        raise _fail(field, f"must be an object with {need}")
+    bad = sorted(set(value) - allowed)
+    if bad:
+        raise _fail(field, f"unknown field(s) {bad}{hint}")
+
+
 def _range(doc: Mapping, key: str, field: str, positive: bool = False) -> list[float]:
     v = doc[key]
     if not (
@@ -181,11 +191,7 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
     out["parts"] = []
     for k, p in enumerate(parts):
         f = f"parts[{k}]"
-        if not isinstance(p, Mapping) or "name" not in p or "links" not in p:
-            raise _fail(f, "must be an object with name and links")
-        bad = sorted(set(p) - {"name", "links", "symmetry"})
-        if bad:
-            raise _fail(f, f"unknown field(s) {bad}")
+        _check_entry(f, p, ("name", "links"), {"name", "links", "symmetry"}, "name and links")
         if not isinstance(p["name"], str) or not p["name"]:
             raise _fail(f"{f}.name", f"must be a non-empty string, got {p['name']!r}")
         links = p["links"]
@@ -204,11 +210,7 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
     out["joints"] = []
     for i, j in enumerate(joints):
         f = f"joints[{i}]"
-        if not isinstance(j, Mapping) or "joint" not in j or "range" not in j:
-            raise _fail(f, "must be an object with joint and range")
-        bad = sorted(set(j) - {"joint", "sign", "offset", "unit", "range"})
-        if bad:
-            raise _fail(f, f"unknown field(s) {bad}")
+        _check_entry(f, j, ("joint", "range"), {"joint", "sign", "offset", "unit", "range"}, "joint and range")
         if not isinstance(j["joint"], str) or not j["joint"]:
             raise _fail(f"{f}.joint", f"must name a joint of the files, got {j['joint']!r}")
         sign = j.get("sign", 1)
@@ -234,11 +236,8 @@ def check_spec(doc: Mapping[str, Any]) -> dict:
     out["instances"] = []
     for k, it in enumerate(inst):
         f = f"instances[{k}]"
-        if not isinstance(it, Mapping) or "file" not in it:
-            raise _fail(f, "must be an object with a file")
-        bad = sorted(set(it) - {"file", "rotation", "scale", "held_out", "held_joints", "parts", "joints"})
-        if bad:
-            raise _fail(f, f"unknown field(s) {bad}")
+        allowed = {"file", "rotation", "scale", "held_out", "held_joints", "parts", "joints"}
+        _check_entry(f, it, ("file",), allowed, "a file")
         if not isinstance(it["file"], str) or not it["file"]:
             raise _fail(f"{f}.file", f"must be a path, got {it['file']!r}")
         entry: dict[str, Any] = {"file": it["file"]}
@@ -304,11 +303,8 @@ def _instance_joints(v: Any, n: int, field: str) -> list[dict[str, Any]]:
     out = []
     for i, j in enumerate(v):
         f = f"{field}[{i}]"
-        if not isinstance(j, Mapping) or "joint" not in j:
-            raise _fail(f, "must be an object with joint (and optionally sign, offset)")
-        bad = sorted(set(j) - {"joint", "sign", "offset"})
-        if bad:
-            raise _fail(f, f"unknown field(s) {bad}; unit and range are the category joint's")
+        hint = "; unit and range are the category joint's"
+        _check_entry(f, j, ("joint",), {"joint", "sign", "offset"}, "joint (and optionally sign, offset)", hint)
         if not isinstance(j["joint"], str) or not j["joint"]:
             raise _fail(f"{f}.joint", f"must name a joint of the file, got {j['joint']!r}")
         e: dict[str, Any] = {"joint": j["joint"]}
