@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..voting.object import part_fit
 
 __all__ = ["FEATURES", "Calibration", "part_features", "fit_logistic", "auroc", "SUCCESS_ROT_DEG", "SUCCESS_TRANS_REL"]
 
@@ -89,13 +90,9 @@ def part_features(
     out[:, 6] = 1.0 - obj.mean()
     out[:, 8] = math.log(max(int(num_input_points), 1))
     js = np.asarray(votes.get("joint_score", np.zeros(0)), np.float64)
-    for k in range(K):  # a handful of parts; vectorised over points
-        mine = labels == k
-        out[k, 4] = mine.sum() / n_obj
-        out[k, 5] = float(seg_prob[mine, k].mean()) if seg_prob is not None and mine.any() else 1.0
-        if mine.any():
-            local = (pts[mine] - T[k, :3, 3]) @ T[k, :3, :3]  # the points in the voted part frame
-            out[k, 7] = float(np.mean(np.all(np.abs(local) <= 0.55 * S[k] + 1e-3, axis=1)))
+    out[:, 5], out[:, 7] = part_fit(pts, labels, seg_prob, T, S)
+    for k in range(K):  # a handful of parts
+        out[k, 4] = np.count_nonzero(labels == k) / n_obj
         near = [j for j in range(len(js)) if joint_parents[j] == k or joint_children[j] == k]
         out[k, 9] = min((js[j] for j in near), default=1.0)
     return out

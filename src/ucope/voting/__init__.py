@@ -25,7 +25,7 @@ from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import ShapeIndex, kinematic_refine, resolve_joint_flips, resolve_shape_flips
-from .object import regressed_object, regression_scores, vote_object
+from .object import part_fit, regressed_object, regression_scores, vote_object
 from .part import PartVote, VotingOptions, vote_part, vote_parts
 from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
 
@@ -53,6 +53,7 @@ __all__ = [
     "resolve_joint_flips",
     "resolve_shape_flips",
     "vote_object",
+    "part_fit",
     "regressed_object",
     "regression_scores",
 ]

@@ -13,7 +13,7 @@ from .joints import vote_joints
 from .kinematic import ShapeIndex, clamp_joint_states, kinematic_refine, resolve_joint_flips, resolve_shape_flips
 from .part import VotingOptions, vote_parts
 
-__all__ = ["vote_object", "regressed_object", "regression_scores"]
+__all__ = ["vote_object", "regressed_object", "regression_scores", "part_fit"]
 
 
 def vote_object(
@@ -72,9 +72,42 @@ def vote_object(
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
 
 
-REGRESSION_BOX_MARGIN = 0.55
+BOX_FIT_MARGIN = 0.55
 """A point fits its part's box when each of its coordinates in the part frame lies within this fraction
-of the box's size (a half plus 10 % of slack for depth noise)."""
+of the box's size (a half plus 10 % of slack for depth noise), plus 1 mm."""
+
+
+def part_fit(
+    points: np.ndarray, labels: np.ndarray, seg_prob: np.ndarray | None, cam_from_part: np.ndarray, size_m: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """How sure the segmentation is of each part and how well each part's box holds its points.
+
+    Args:
+        points: ``(P, 3)`` the network's points (camera frame, metres).
+        labels: ``(P,)`` their segmentation (values ``>= K``: background).
+        seg_prob: ``(P, C)`` class probabilities, ``C >= K``, or ``None`` (no segmentation).
+        cam_from_part: ``(K, 4, 4)`` part poses; size_m: ``(K, 3)`` their box sizes (metres).
+
+    Returns:
+        ``(confidence (K,), fit (K,))``: the mean probability of class ``k`` over the points labelled
+        ``k`` (1 without ``seg_prob`` or without such points), and the fraction of those points inside
+        part ``k``'s box (:data:`BOX_FIT_MARGIN`; 0 without such points).
+    """
+    T = np.asarray(cam_from_part, np.float64)
+    S = np.asarray(size_m, np.float64)
+    pts = np.asarray(points, np.float64)
+    labels = np.asarray(labels)
+    K = len(T)
+    conf, fit = np.ones(K), np.zeros(K)
+    for k in range(K):  # a handful of parts; vectorised over points
+        mine = labels == k
+        if not mine.any():
+            continue
+        if seg_prob is not None:
+            conf[k] = float(seg_prob[mine, k].mean())
+        local = (pts[mine] - T[k, :3, 3]) @ T[k, :3, :3]  # the points in the part frame
+        fit[k] = float(np.mean(np.all(np.abs(local) <= BOX_FIT_MARGIN * S[k] + 1e-3, axis=1)))
+    return conf, fit
 
 
 def regression_scores(
@@ -82,7 +115,7 @@ def regression_scores(
 ) -> np.ndarray:
     """``(K,)`` scores in ``[0, 1]`` of regressed part poses: the mean segmentation probability of the
     points segmented as part ``k`` times the fraction of those points that lie inside part ``k``'s
-    regressed box (see :data:`REGRESSION_BOX_MARGIN`). A part with no points scores 0.
+    regressed box (:func:`part_fit`). A part with no points scores 0.
 
     This is what a direct regression can say about itself without votes: whether the network is sure
     which points are the part, and whether its box agrees with them. A rotation about an axis the box
@@ -95,24 +128,9 @@ def regression_scores(
         cam_from_part: ``(K, 4, 4)`` regressed poses.
         size_m: ``(K, 3)`` regressed box sizes.
     """
-    T = np.asarray(cam_from_part, np.float64)
-    S = np.asarray(size_m, np.float64)
-    K = len(T)
-    P = len(points)
-    if seg_prob is None:
-        labels, conf = np.zeros(P, np.int64), np.ones(P)
-    else:
-        labels = seg_prob.argmax(-1)
-        conf = seg_prob[np.arange(P), labels]
-    scores = np.zeros(K)
-    for k in range(K):  # a handful of parts; vectorised over points
-        mine = labels == k
-        if not mine.any():
-            continue
-        local = (points[mine] - T[k, :3, 3]) @ T[k, :3, :3]
-        inside = np.all(np.abs(local) <= REGRESSION_BOX_MARGIN * S[k] + 1e-3, axis=1)
-        scores[k] = float(conf[mine].mean() * inside.mean())
-    return scores
+    labels = np.zeros(len(points), np.int64) if seg_prob is None else np.asarray(seg_prob).argmax(-1)
+    conf, fit = part_fit(points, labels, seg_prob, cam_from_part, size_m)
+    return conf * fit
 
 
 def regressed_object(
