@@ -9,7 +9,16 @@ import pytest
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.objects.categories import make_instance
-from ucope.priors import CategoryPriors, JointPrior, PartPrior, measure_priors, placement_offsets, structure_from_dict
+from ucope.priors import (
+    CategoryPriors,
+    JointPrior,
+    PartPrior,
+    measure_priors,
+    pivot_offsets,
+    placement_offsets,
+    structure_from_dict,
+    upright_statistics,
+)
 from ucope.vocab import JointType
 
 
@@ -65,6 +74,54 @@ def test_placement_offsets_match_a_direct_computation(rng):
         np.testing.assert_allclose(pic[s], T[s, 1, :3, :3].T @ (T[s, 0, :3, 3] - T[s, 1, :3, 3]) / np.linalg.norm(S[s, 1]))
 
 
+def test_pivot_offsets_describe_one_point_on_the_axis_in_both_parts(rng):
+    from ucope.geometry.transforms import make_transform, random_rotation
+
+    a = np.array([0.0, 0.6, 0.8])
+    T = np.stack([np.stack([make_transform(random_rotation(rng), rng.normal(size=3)) for _ in range(2)]) for _ in range(4)])
+    S = rng.uniform(0.1, 1.0, (4, 2, 3))
+    pivot = rng.normal(size=(4, 3))
+    pp, pc = pivot_offsets(T, S, pivot, a, 0, 1)
+    for s in range(4):
+        foot_p = T[s, 0, :3, :3] @ (pp[s] * S[s, 0]) + T[s, 0, :3, 3]
+        foot_c = T[s, 1, :3, :3] @ (pc[s] * S[s, 1]) + T[s, 1, :3, 3]
+        np.testing.assert_allclose(foot_p, foot_c, atol=1e-12)  # the same point, seen from both parts
+        u = T[s, 0, :3, :3] @ a
+        d = foot_p - pivot[s]
+        np.testing.assert_allclose(np.linalg.norm(np.cross(d, u)), 0.0, atol=1e-12)  # on the axis line
+        assert abs((foot_p - T[s, 0, :3, 3]) @ u) < 1e-12  # the foot from the parent's centre
+
+
+def test_upright_statistics_find_the_axis_the_views_hold_and_its_cone(rng):
+    from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
+
+    # part 0 tilts up to 20 degrees about random horizontal axes; part 1 turns freely
+    t = rng.uniform(0, 2 * np.pi, 50)
+    tilt = rotation_about_axis(np.stack([np.cos(t), 0 * t, np.sin(t)], -1), np.radians(np.linspace(0, 20, 50)))
+    R0 = tilt @ rotation_about_axis(np.array([0.0, 1.0, 0.0]), rng.uniform(-np.pi, np.pi, 50))
+    zero = np.zeros(3)
+    T = np.stack([np.stack([make_transform(R0[s], zero), make_transform(random_rotation(rng), zero)]) for s in range(50)])
+    (ax, mean, cone), free = upright_statistics(T)
+    assert ax == 1 and free is None
+    direct = T[:, 0, :3, 1].mean(0)
+    np.testing.assert_allclose(mean, direct / np.linalg.norm(direct))
+    assert cone == pytest.approx(np.degrees(np.arccos(np.clip(T[:, 0, :3, 1] @ np.array(mean), -1, 1))).max())
+    assert 15.0 < cone < 25.0
+
+
+def test_measured_priors_hold_the_upright_base_and_the_hinge(rng):
+    samples = _samples("laptop", 16)
+    pri = measure_priors(samples, "laptop", _structure("laptop"))
+    base, lid = pri.parts
+    assert base.upright_axis == 1 and 5.0 < base.upright_cone_deg < 60.0  # the base lies on the table, y up
+    assert lid.upright_axis is None  # the lid turns with the joint
+    (j,) = pri.joints
+    # the hinge runs along the base's top back edge (docs/conventions.md: the lid rises at -z)
+    assert j.pivot_in_parent[1] == pytest.approx(0.5, abs=0.05) and j.pivot_in_parent[2] == pytest.approx(-0.5, abs=0.05)
+    drawers = measure_priors(_samples("drawer", 6), "drawer", _structure("drawer"))
+    assert all(jp.pivot_in_parent is None for jp in drawers.joints)  # prismatic joints have no pivot
+
+
 def test_bad_priors_and_structures_are_refused():
     part = PartPrior(name="a", symmetry="none", vote_range_m=0.2, mean_size_m=(0.1, 0.1, 0.1))
     with pytest.raises(InputError, match="symmetry"):
@@ -79,6 +136,14 @@ def test_bad_priors_and_structures_are_refused():
         JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(0, 0, 0))
     with pytest.raises(InputError, match="lower <= upper"):
         JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(1, 0, 0), limits=(1.0, 0.0))
+    with pytest.raises(InputError, match="go together"):
+        PartPrior(name="a", symmetry="none", vote_range_m=0.2, mean_size_m=(0.1, 0.1, 0.1), upright_axis=1)
+    with pytest.raises(InputError, match="0, 1 or 2"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), upright_axis=3, upright_in_cam=(0, 1, 0), upright_cone_deg=20.0)
+    with pytest.raises(InputError, match=r"\[0, 180\]"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), upright_axis=1, upright_in_cam=(0, 1, 0), upright_cone_deg=-1.0)
+    with pytest.raises(InputError, match="go together"):
+        JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(1, 0, 0), pivot_in_parent=(0, 0.5, -0.5))
     joint = JointPrior(type="revolute", parent=0, child=1, axis_in_parent=(0, 2, 0), limits=(None, None))
     assert joint.axis_in_parent == (0.0, 1.0, 0.0) and joint.limits == (None, None)
     with pytest.raises(InputError, match="1 joints"):

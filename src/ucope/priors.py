@@ -6,9 +6,11 @@ model is trained (:func:`measure_priors`, from the training samples and the data
 structure) and stored in the model files, so a model predicts without the generator (or the meshes)
 that made its data.
 
-* :class:`PartPrior`: a part's name, symmetry, vote range and mean size;
+* :class:`PartPrior`: a part's name, symmetry, vote range and mean size, and the part axis (if any) that
+  the training views hold upright: its direction in the camera frame and the cone it stays in;
 * :class:`JointPrior`: a joint's type, parent and child, canonical axis in the parent frame, state
-  limits, prismatic zero offset and where its two parts' centres sit relative to each other;
+  limits, prismatic zero offset, where its two parts' centres sit relative to each other and where a
+  revolute axis passes in each part's unit box;
 * :class:`CategoryPriors`: the whole category, plus per-part shape templates (surface points in each
   part's unit box) and the input normalisation scale.
 
@@ -38,12 +40,18 @@ __all__ = [
     "structure_from_dict",
     "measure_priors",
     "placement_offsets",
+    "pivot_offsets",
+    "upright_statistics",
     "shape_template_points",
     "cloud_radius",
 ]
 
 TEMPLATE_POINTS = 4096
 """Points per part kept in a shape template measured from training views."""
+
+UPRIGHT_MIN_RESULTANT = 0.9
+"""A part axis counts as held upright by the training views when the mean of its camera-frame
+directions has at least this length (1 = always the same direction, about 0 = any direction)."""
 
 
 def _finite(values, name: str, positive: bool = False) -> np.ndarray:
@@ -65,12 +73,21 @@ class PartPrior:
             on ``[0, V]``.
         mean_size_m: ``(3,)`` the geometric mean of the part's box extents; ``gamma = log(size) -
             log(mean_size_m)``.
+        upright_axis: the part axis (0 = x, 1 = y, 2 = z) whose direction in the camera frame the
+            training views keep nearly fixed (a part resting on a support, seen by an upright camera
+            from above), or ``None`` (:func:`upright_statistics`).
+        upright_in_cam: ``(3,)`` that axis's mean direction in the camera frame (OpenCV axes), unit.
+        upright_cone_deg: the largest angle between that axis and ``upright_in_cam`` over the training
+            views.
     """
 
     name: str
     symmetry: str
     vote_range_m: float
     mean_size_m: tuple[float, float, float]
+    upright_axis: int | None = None
+    upright_in_cam: tuple[float, float, float] | None = None
+    upright_cone_deg: float | None = None
 
     def __post_init__(self) -> None:
         parse_symmetry(self.symmetry)
@@ -79,6 +96,21 @@ class PartPrior:
         if size.shape != (3,):
             raise InputError(f"part {self.name!r}: mean_size_m needs 3 values, got {size.shape}")
         object.__setattr__(self, "mean_size_m", tuple(float(x) for x in size))
+        given = [self.upright_axis is None, self.upright_in_cam is None, self.upright_cone_deg is None]
+        if any(given) and not all(given):
+            raise InputError(f"part {self.name!r}: upright_axis, upright_in_cam and upright_cone_deg go together")
+        if self.upright_axis is not None:
+            if int(self.upright_axis) not in (0, 1, 2):
+                raise InputError(f"part {self.name!r}: upright_axis must be 0, 1 or 2, got {self.upright_axis}")
+            d = _finite(self.upright_in_cam, f"part {self.name!r} upright_in_cam").reshape(-1)
+            if d.shape != (3,) or np.linalg.norm(d) < 1e-9:
+                raise InputError(f"part {self.name!r}: upright_in_cam must be a non-zero 3-vector")
+            cone = float(_finite(self.upright_cone_deg, f"part {self.name!r} upright_cone_deg"))
+            if not 0.0 <= cone <= 180.0:
+                raise InputError(f"part {self.name!r}: upright_cone_deg must lie in [0, 180], got {cone}")
+            object.__setattr__(self, "upright_axis", int(self.upright_axis))
+            object.__setattr__(self, "upright_in_cam", tuple(float(x) for x in d / np.linalg.norm(d)))
+            object.__setattr__(self, "upright_cone_deg", cone)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -86,6 +118,9 @@ class PartPrior:
             "symmetry": self.symmetry,
             "vote_range_m": self.vote_range_m,
             "mean_size_m": list(self.mean_size_m),
+            "upright_axis": self.upright_axis,
+            "upright_in_cam": None if self.upright_in_cam is None else list(self.upright_in_cam),
+            "upright_cone_deg": self.upright_cone_deg,
         }
 
 
@@ -107,6 +142,11 @@ class JointPrior:
             frame divided by the parent's box diagonal, and of the parent's centre in the child's frame
             divided by the child's diagonal (over the category's instances and joint range): where each
             part's neighbour sits, used to undo half-turn flips (:func:`ucope.voting.kinematic.resolve_joint_flips`).
+        pivot_in_parent, pivot_in_child: revolute joints: ``(3,)`` the foot of the perpendicular from the
+            parent's box centre to the joint axis, in the parent's and in the child's frame, each divided
+            elementwise by that part's box extents (mean over the training views, :func:`pivot_offsets`);
+            ``None`` for prismatic joints or when not measured. They place a part from its neighbour
+            through the joint (:func:`ucope.voting.kinematic.carry_upright`).
     """
 
     type: JointType
@@ -117,6 +157,8 @@ class JointPrior:
     zero_offset_m: float = 0.0
     child_in_parent: tuple[float, float, float] = (0.0, 0.0, 0.0)
     parent_in_child: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    pivot_in_parent: tuple[float, float, float] | None = None
+    pivot_in_child: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         jt = JointType.parse(self.type)
@@ -141,6 +183,14 @@ class JointPrior:
             if v.shape != (3,):
                 raise InputError(f"joint {self.parent}->{self.child}: {name} needs 3 values")
             object.__setattr__(self, name, tuple(float(x) for x in v))
+        if (self.pivot_in_parent is None) != (self.pivot_in_child is None):
+            raise InputError(f"joint {self.parent}->{self.child}: pivot_in_parent and pivot_in_child go together")
+        for name in ("pivot_in_parent", "pivot_in_child"):
+            if getattr(self, name) is not None:
+                v = _finite(getattr(self, name), name).reshape(-1)
+                if v.shape != (3,):
+                    raise InputError(f"joint {self.parent}->{self.child}: {name} needs 3 values")
+                object.__setattr__(self, name, tuple(float(x) for x in v))
 
     @property
     def axis(self) -> np.ndarray:
@@ -157,6 +207,8 @@ class JointPrior:
             "zero_offset_m": self.zero_offset_m,
             "child_in_parent": list(self.child_in_parent),
             "parent_in_child": list(self.parent_in_child),
+            "pivot_in_parent": None if self.pivot_in_parent is None else list(self.pivot_in_parent),
+            "pivot_in_child": None if self.pivot_in_child is None else list(self.pivot_in_child),
         }
 
 
@@ -280,6 +332,9 @@ class CategoryPriors:
                     symmetry=str(p["symmetry"]),
                     vote_range_m=p["vote_range_m"],
                     mean_size_m=tuple(p["mean_size_m"]),
+                    upright_axis=p.get("upright_axis"),
+                    upright_in_cam=_tuple_or_none(p.get("upright_in_cam")),
+                    upright_cone_deg=p.get("upright_cone_deg"),
                 )
                 for p in d["parts"]
             )
@@ -293,6 +348,8 @@ class CategoryPriors:
                     zero_offset_m=j.get("zero_offset_m", 0.0),
                     child_in_parent=tuple(j["child_in_parent"]),
                     parent_in_child=tuple(j["parent_in_child"]),
+                    pivot_in_parent=_tuple_or_none(j.get("pivot_in_parent")),
+                    pivot_in_child=_tuple_or_none(j.get("pivot_in_child")),
                 )
                 for j in d["joints"]
             )
@@ -315,6 +372,10 @@ class CategoryPriors:
     def with_templates(self, shape_templates: Sequence[np.ndarray]) -> CategoryPriors:
         """A copy with other shape templates."""
         return replace(self, shape_templates=tuple(shape_templates))
+
+
+def _tuple_or_none(v) -> tuple | None:
+    return None if v is None else tuple(v)
 
 
 # -------------------------------------------------------------------------------------- structure
@@ -371,6 +432,57 @@ def placement_offsets(cam_from_part: np.ndarray, size_m: np.ndarray, parent: int
     return cip, pic
 
 
+def pivot_offsets(
+    cam_from_part: np.ndarray, size_m: np.ndarray, pivot: np.ndarray, axis_in_parent: np.ndarray, parent: int, child: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where a revolute joint's axis passes in each of its two parts, in their unit boxes.
+
+    The point is the foot ``f`` of the perpendicular from the parent's box centre to the axis line (the
+    line through ``pivot`` along ``R_p a``), so that both parts describe the same point.
+
+    Args:
+        cam_from_part: ``(S, K, 4, 4)`` part poses of ``S`` views; size_m: ``(S, K, 3)`` box extents.
+        pivot: ``(S, 3)`` a point on the joint axis per view (camera frame); axis_in_parent: ``(3,)`` unit.
+
+    Returns:
+        ``(pivot_in_parent, pivot_in_child)``, each ``(S, 3)``: ``R_p^T (f - t_p) / size_p`` and
+        ``R_c^T (f - t_c) / size_c`` (elementwise division).
+    """
+    T = np.asarray(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    a = np.asarray(axis_in_parent, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    x = np.einsum("sji,sj->si", T[:, parent, :3, :3], np.asarray(pivot, np.float64) - T[:, parent, :3, 3])
+    x = x - (x @ a)[:, None] * a  # the foot from the parent's centre, parent frame
+    foot = np.einsum("sij,sj->si", T[:, parent, :3, :3], x) + T[:, parent, :3, 3]
+    xc = np.einsum("sji,sj->si", T[:, child, :3, :3], foot - T[:, child, :3, 3])
+    return x / S[:, parent], xc / S[:, child]
+
+
+def upright_statistics(cam_from_part: np.ndarray, min_resultant: float = UPRIGHT_MIN_RESULTANT) -> list[tuple | None]:
+    """Per part, the axis that the views hold upright: ``(axis, mean direction (3,), cone_deg)`` or ``None``.
+
+    The axis is the part axis whose camera-frame directions have the longest mean (of length at least
+    ``min_resultant``); ``cone_deg`` is the largest angle between it and its mean direction over the views.
+
+    Args:
+        cam_from_part: ``(S, K, 4, 4)`` part poses of ``S`` views.
+    """
+    R = np.asarray(cam_from_part, dtype=np.float64)[..., :3, :3]  # (S, K, 3, 3): columns = part axes in camera
+    mean = R.mean(axis=0)  # (K, 3, 3)
+    length = np.linalg.norm(mean, axis=1)  # (K, 3) per axis (column)
+    out: list[tuple | None] = []
+    for k in range(R.shape[1]):  # a handful of parts
+        ax = int(np.argmax(length[k]))
+        if length[k, ax] < min_resultant:
+            out.append(None)
+            continue
+        m = mean[k][:, ax] / length[k, ax]
+        cone = float(np.degrees(np.arccos(np.clip(R[:, k, :, ax] @ m, -1.0, 1.0))).max())
+        out.append((ax, tuple(float(v) for v in m), cone))
+    return out
+
+
 def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_points: int = TEMPLATE_POINTS) -> np.ndarray:
     """``(P, 3)`` float32 points of ``part`` seen in ``samples``, in its unit box (part frame / extents).
 
@@ -405,15 +517,16 @@ def measure_priors(
 
     Args:
         samples: an indexable sequence of sample dicts (:mod:`ucope.data.sample` fields: ``points``,
-            ``part_labels``, ``cam_from_part``, ``size_m``, ``joint_axis``, ``joint_state``).
+            ``part_labels``, ``cam_from_part``, ``size_m``, ``joint_axis``, ``joint_pivot``, ``joint_state``).
         category: the category's name.
         structure: the data set's declared structure (:func:`structure_from_dict`).
         template_samples: samples (evenly spaced) whose points make the shape templates.
 
     The statistics: vote range 1.1 x the largest half box diagonal, mean size = geometric mean, input
     scale = mean cloud radius, the range of :func:`cloud_radius`, prismatic zero offsets and part placements at
-    the true poses, joint limits = the declared limits widened to every state seen. Raises :class:`InputError` on an empty
-    data set or samples that disagree with the structure.
+    the true poses, joint limits = the declared limits widened to every state seen, revolute pivots
+    in the parts' unit boxes (:func:`pivot_offsets`) and the upright axes (:func:`upright_statistics`).
+    Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
 
@@ -434,13 +547,21 @@ def measure_priors(
     robust = [cloud_radius(p) for p in clouds]
     vote = 1.1 * 0.5 * np.linalg.norm(size, axis=-1).max(0)
     mean = np.exp(np.log(size).mean(0))
+    T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
+    upright = upright_statistics(T)
     parts = tuple(
-        PartPrior(name=nm, symmetry=sym, vote_range_m=float(vote[k]), mean_size_m=tuple(mean[k]))
+        PartPrior(
+            name=nm,
+            symmetry=sym,
+            vote_range_m=float(vote[k]),
+            mean_size_m=tuple(mean[k]),
+            **(dict(zip(("upright_axis", "upright_in_cam", "upright_cone_deg"), upright[k], strict=True)) if upright[k] else {}),
+        )
         for k, (nm, sym) in enumerate(part_decl)
     )
     joints = []
     if J:
-        T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
+        P = np.stack([np.asarray(s["joint_pivot"], np.float64).reshape(J, 3) for s in picked])
         U = np.stack([np.asarray(s["joint_axis"], np.float64).reshape(J, 3) for s in picked])
         Q = np.stack([np.asarray(s["joint_state"], np.float64).reshape(J) for s in picked])
         for j, jd in enumerate(joint_decl):  # a handful of joints; vectorised over samples
@@ -449,6 +570,10 @@ def measure_priors(
             if jd["type"] == JointType.PRISMATIC:
                 zero = prismatic_zero_offset(T[:, p], T[:, c], U[:, j], size[:, p], size[:, c], Q[:, j])
             cip, pic = placement_offsets(T, size, p, c)
+            piv: dict[str, Any] = {}
+            if jd["type"] == JointType.REVOLUTE and np.all(np.isfinite(P[:, j])):
+                pp, pc = pivot_offsets(T, size, P[:, j], jd["axis_in_parent"], p, c)
+                piv = dict(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))
             lo, hi = jd["limits"]
             lo = None if lo is None else min(lo, float(Q[:, j].min()))
             hi = None if hi is None else max(hi, float(Q[:, j].max()))
@@ -462,6 +587,7 @@ def measure_priors(
                     zero_offset_m=zero,
                     child_in_parent=tuple(cip.mean(0)),
                     parent_in_child=tuple(pic.mean(0)),
+                    **piv,
                 )
             )
     t_idx = np.unique(np.linspace(0, n - 1, min(n, int(template_samples))).round().astype(np.int64))

@@ -346,3 +346,31 @@ def test_prediction_needs_only_the_model_not_the_generators(tmp_path):
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0 and out.stdout.startswith("ok"), out.stderr
+
+
+def test_a_carried_part_gets_a_halved_score_and_a_warning(monkeypatch):
+    """When :func:`ucope.voting.kinematic.carry_upright` re-places a part, the result says so and halves
+    that part's score; ``upright=False`` skips it. (The carry itself: tests/voting/test_kinematic.py.)"""
+    import ucope.voting.object as vo
+
+    s = make_sample(GenerateConfig(category="laptop", split="test", num=1, views_per_instance=1), 0)
+    plain = Estimator.load("laptop", num_pairs=2000, upright=False).predict_sample(s)
+    assert not any("placed from its neighbour" in w for w in plain.warnings)
+    monkeypatch.setattr(vo, "carry_upright", lambda T, S, priors: (np.array(T), np.array([True, False])))
+    marked = Estimator.load("laptop", num_pairs=2000).predict_sample(s)
+    assert sum("part 'base'" in w and "placed from its neighbour" in w for w in marked.warnings) == 1
+    assert marked.parts[0].score == pytest.approx(0.5 * plain.parts[0].score)
+    assert marked.parts[1].score == pytest.approx(plain.parts[1].score)
+    np.testing.assert_allclose(marked.parts[0].cam_from_part, plain.parts[0].cam_from_part)
+
+
+def test_shipped_articulated_models_know_their_upright_parts():
+    """The shipped models carry the upright and pivot priors that :func:`carry_upright` reads."""
+    from ucope.model.checkpoint import list_pretrained
+
+    for name in ("laptop", "scissors", "dishwasher", "drawer", "eyeglasses"):
+        if name not in list_pretrained():
+            continue
+        pri = Estimator.load(name).priors
+        assert pri.parts[0].upright_axis is not None, name
+        assert all((jp.pivot_in_parent is not None) == (jp.type.label == "revolute") for jp in pri.joints), name

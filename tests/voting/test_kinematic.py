@@ -229,3 +229,90 @@ def test_states_outside_the_limits_are_clamped_and_the_child_moves_with_them():
     np.testing.assert_allclose(T2[1, :3, :3], rotation_about_axis(np.array([1.0, 0, 0]), 1.0), atol=1e-9)
     same, q3, clamped = clamp_joint_states(T2, np.eye(3)[:1], np.zeros((1, 3)), np.array([1.0]), rev)
     assert not clamped[0] and np.array_equal(same, T2)
+
+
+def test_a_part_tilted_off_its_upright_is_carried_from_its_neighbour_through_the_joint():
+    """Laptop: a base voted on end (turned 70 degrees about the hinge line) is re-placed from the lid:
+    consistent with it through the joint, within the limits, its hinge where the lid's is, nearer the
+    truth; true poses are left alone."""
+    from ucope.geometry.kinematics import revolute_angle
+    from ucope.voting import carry_upright, upright_angles_deg
+
+    S = _samples("laptop", "train", 12)
+    pri = measured_priors("laptop", S)
+    jp = pri.joints[0]
+    a = jp.axis
+    moved = 0
+    for s in S:
+        T, size = s["cam_from_part"], s["size_m"]
+        same, carried = carry_upright(T, size, pri)
+        assert not carried.any() and np.array_equal(same, T)  # the training views are inside the cone
+        u = T[0, :3, :3] @ a
+        turn = rotation_about_axis(u, np.radians(70.0))
+        bad = T.copy()
+        bad[0, :3, :3] = turn @ T[0, :3, :3]
+        bad[0, :3, 3] = turn @ (T[0, :3, 3] - s["joint_pivot"][0]) + s["joint_pivot"][0]
+        if not upright_angles_deg(bad, pri)[0] > pri.parts[0].upright_cone_deg + 10.0:
+            continue  # turned within the cone: nothing to do
+        moved += 1
+        fixed, carried = carry_upright(bad, size, pri)
+        assert carried.tolist() == [True, False]
+        np.testing.assert_array_equal(fixed[1], bad[1])  # the lid is kept
+        q = revolute_angle(fixed[0, :3, :3].T @ fixed[1, :3, :3], a)
+        np.testing.assert_allclose(fixed[1, :3, :3], fixed[0, :3, :3] @ rotation_about_axis(a, q), atol=1e-9)
+        assert jp.limits[0] - 1e-9 <= q <= jp.limits[1] + 1e-9
+        assert upright_angles_deg(fixed, pri)[0] <= pri.parts[0].upright_cone_deg + 10.0
+        offsets = (jp.pivot_in_parent, jp.pivot_in_child)
+        feet = [fixed[k, :3, :3] @ (np.asarray(f) * size[k]) + fixed[k, :3, 3] for k, f in enumerate(offsets)]
+        np.testing.assert_allclose(feet[0], feet[1], atol=1e-9)
+        err_bad = rotation_angle_deg(bad[0, :3, :3], T[0, :3, :3])
+        err_fixed = rotation_angle_deg(fixed[0, :3, :3], T[0, :3, :3])
+        assert err_fixed < 0.6 * err_bad
+        assert np.linalg.norm(fixed[0, :3, 3] - T[0, :3, 3]) < np.linalg.norm(bad[0, :3, 3] - T[0, :3, 3])
+    assert moved >= 6
+
+
+def test_carrying_needs_a_plausible_neighbour_and_is_off_for_rigid_objects(rng):
+    from ucope.geometry.transforms import make_transform
+    from ucope.voting import carry_upright
+
+    S = _samples("drawer", "train", 2)
+    pri = measured_priors("drawer", S)
+    s = S[0]
+    T = s["cam_from_part"].copy()
+    flip = rotation_about_axis(np.array([1.0, 0.0, 0.0]), np.pi)  # everything upside down
+    T[:, :3, :3] = flip @ T[:, :3, :3]
+    fixed, carried = carry_upright(T, s["size_m"], pri)
+    assert not carried.any() and np.array_equal(fixed, T)  # no plausible neighbour to carry from
+    # one drawer upside down: carried from the cabinet (prismatic: same rotation, its voted centre kept)
+    T = s["cam_from_part"].copy()
+    T[2, :3, :3] = flip @ T[2, :3, :3]
+    fixed, carried = carry_upright(T, s["size_m"], pri)
+    assert carried.tolist() == [False, False, True, False]
+    np.testing.assert_allclose(fixed[2, :3, :3], s["cam_from_part"][0, :3, :3], atol=1e-12)
+    np.testing.assert_array_equal(fixed[2, :3, 3], T[2, :3, 3])
+    rigid = measured_priors("mug", _samples("mug", "train", 3))
+    one = make_transform(flip, np.array([0.0, 0.0, 0.5]))[None]
+    out, carried = carry_upright(one, np.ones((1, 3)), rigid)
+    assert not carried.any() and np.array_equal(out, one)
+
+
+def test_a_part_turning_about_its_upright_axis_keeps_the_state_nearest_its_vote():
+    """Eyeglasses: a temple's hinge is its upright axis, so every state is equally upright; a temple
+    voted tipped over (100 degrees about its z) comes back at the state nearest its voted rotation."""
+    from ucope.geometry.kinematics import revolute_angle
+    from ucope.voting import carry_upright
+
+    S = _samples("eyeglasses", "train", 8)
+    pri = measured_priors("eyeglasses", S)
+    jp = pri.joints[0]
+    assert pri.parts[jp.child].upright_axis == 1 and abs(jp.axis[1]) > 0.99  # hinge along y
+    s = S[0]
+    T = s["cam_from_part"].copy()
+    q0 = revolute_angle(T[0, :3, :3].T @ T[jp.child, :3, :3], jp.axis)
+    T[jp.child, :3, :3] = T[jp.child, :3, :3] @ rotation_about_axis(np.array([0.0, 0.0, 1.0]), np.radians(100.0))
+    fixed, carried = carry_upright(T, s["size_m"], pri)
+    assert carried.tolist() == [False, True, False]
+    q = revolute_angle(fixed[0, :3, :3].T @ fixed[jp.child, :3, :3], jp.axis)
+    step = (jp.limits[1] - jp.limits[0]) / 180
+    assert abs(q - np.clip(q0, *jp.limits)) <= step

@@ -289,6 +289,7 @@ def _estimator(args: argparse.Namespace):
         segment_pairs=False if args.pairs_from_cloud else None,
         rescale=not args.no_rescale,
         remove_plane=args.remove_plane,
+        upright=not args.no_upright,
         options=_voting_options(args),
     )
 
@@ -526,6 +527,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "--keep-flips",
         action="store_true",
         help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)",
+    )
+    p.add_argument(
+        "--no-upright",
+        action="store_true",
+        help="do not re-place a part voted far off the upright the training views kept it in from its neighbour "
+        "(use with a rolled camera or one below the object)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the subsampling and pair draws (>= 0)")
     p.add_argument("--device", default="cpu", help="torch device of the network: cpu (default), cuda, cuda:1, mps")

@@ -108,6 +108,11 @@ class Estimator:
             (:func:`ucope.estimation.inputs.find_support_plane`) and leave it out (its points get the label
             -1). Off here; :meth:`load` takes the model's default (on where it measured better:
             docs/robustness.md).
+        upright: re-place a part that voting tilted far off the upright the training views kept it in
+            (a laptop base hidden behind its lid) from a neighbour through their joint
+            (:func:`ucope.voting.kinematic.carry_upright`); its score is halved and a warning says so.
+            It assumes an upright camera looking from the training elevations: pass ``False`` for a
+            rolled camera or one below the object. On by default; measured in docs/results.md.
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -131,6 +136,7 @@ class Estimator:
         calibration: Calibration | None = None,
         rescale: bool = True,
         remove_plane: bool = False,
+        upright: bool = True,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -161,6 +167,7 @@ class Estimator:
         self.calibration = calibration
         self.rescale = bool(rescale)
         self.remove_plane = bool(remove_plane)
+        self.upright = bool(upright)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
@@ -259,7 +266,13 @@ class Estimator:
         t3 = time.perf_counter()
         if cfg.head == "regression":
             v = regressed_object(
-                p_net, out, self.priors, awareness=self.awareness, refine=self.refine, resolve_flips=self.resolve_flips
+                p_net,
+                out,
+                self.priors,
+                awareness=self.awareness,
+                refine=self.refine,
+                resolve_flips=self.resolve_flips,
+                upright=self.upright,
             )
         else:
 
@@ -277,6 +290,7 @@ class Estimator:
                 refine=self.refine,
                 options=self.options,
                 resolve_flips=self.resolve_flips,
+                upright=self.upright,
                 axis_heads=axis_heads,
                 shapes=self.shapes,
                 score_filter=self.score_filter,
@@ -287,10 +301,18 @@ class Estimator:
             v, labels, seg_prob, p_net, len(raw), [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
         )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
+        carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
+        scores = np.where(carried, 0.5 * scores, scores)
         if scale != 1.0:
             v = self._scale_back(v, scale, centre)
             p_net = (centre + (p_net - centre) / scale).astype(np.float32)
         parts, joints = self._estimates(v, scores)
+        for k in np.flatnonzero(carried):
+            warnings.append(
+                f"part {parts[k].label!r}: its voted pose was tilted far off the upright this model was trained on; "
+                "it was placed from its neighbour through their joint, its score halved (upright=False if the camera is "
+                "rolled or below the object)"
+            )
         for j in np.flatnonzero(v.get("joint_clamped", [])):
             warnings.append(
                 f"joint {joints[j].parent}->{joints[j].child}: the voted state lay outside the category's limits; "

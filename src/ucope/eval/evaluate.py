@@ -322,6 +322,7 @@ def evaluate(
             "awareness": estimator.awareness,
             "refine": estimator.refine,
             "resolve_flips": getattr(estimator, "resolve_flips", False),
+            "upright": getattr(estimator, "upright", False),
             "seed": estimator.seed,
             "rescale": getattr(estimator, "rescale", False),
             "score_filter": getattr(estimator, "score_filter", estimator.awareness),

@@ -15,6 +15,7 @@ measured accuracy.
 * :func:`vote_part`, :func:`vote_parts` (:class:`VotingOptions`): one part / every part of an object.
 * :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
 * :func:`resolve_joint_flips`, :func:`resolve_shape_flips` (:class:`ShapeIndex`), :func:`kinematic_refine`.
+* :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 """
 
@@ -24,7 +25,14 @@ from .axis import AxisOptions, choose_axis_sign, fibonacci_sphere, vote_axis
 from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
 from .joints import JointVote, joint_from_points, vote_joints
-from .kinematic import ShapeIndex, kinematic_refine, resolve_joint_flips, resolve_shape_flips
+from .kinematic import (
+    ShapeIndex,
+    carry_upright,
+    kinematic_refine,
+    resolve_joint_flips,
+    resolve_shape_flips,
+    upright_angles_deg,
+)
 from .object import part_fit, regressed_object, regression_scores, vote_object
 from .part import PartVote, VotingOptions, vote_part, vote_parts
 from .rotation import perpendicular_axis, refine_rotation, rotation_from_axes
@@ -52,6 +60,8 @@ __all__ = [
     "kinematic_refine",
     "resolve_joint_flips",
     "resolve_shape_flips",
+    "carry_upright",
+    "upright_angles_deg",
     "vote_object",
     "part_fit",
     "regressed_object",

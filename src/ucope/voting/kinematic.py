@@ -29,6 +29,12 @@ the part votes; each model carries its measured default (docs/voting.md).
 
 The flip checks (:func:`resolve_joint_flips`, :func:`resolve_shape_flips`) read the joint limits, the
 part placements and the shape templates of the model's :class:`ucope.priors.CategoryPriors`.
+
+:func:`carry_upright` re-places a part that voting tilted far outside the upright the training views
+kept it in (a laptop base hidden behind its lid, whose few visible points voted it on end) from a
+neighbour through their joint: the joint state within the limits that brings the part nearest its
+upright, the part's centre from the joint axis's place in both parts' unit boxes
+(``JointPrior.pivot_in_parent`` / ``pivot_in_child``, revolute joints).
 """
 
 from __future__ import annotations
@@ -44,7 +50,27 @@ from ..geometry.transforms import closest_rotation, rotation_about_axis
 from ..priors import CategoryPriors
 from ..vocab import JointType
 
-__all__ = ["kinematic_refine", "resolve_joint_flips", "resolve_shape_flips", "ShapeIndex", "clamp_joint_states"]
+__all__ = [
+    "kinematic_refine",
+    "resolve_joint_flips",
+    "resolve_shape_flips",
+    "ShapeIndex",
+    "clamp_joint_states",
+    "carry_upright",
+    "upright_angles_deg",
+    "UPRIGHT_MARGIN_DEG",
+]
+
+UPRIGHT_MARGIN_DEG = 10.0
+"""How far beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt
+before :func:`carry_upright` re-places the part from a neighbour."""
+
+_CARRY_STEPS = 181
+"""Joint states tried per revolute joint by :func:`carry_upright` (evenly over the limits)."""
+
+_TIE_DEG = 1.0
+"""States whose upright angle is within this of the best count as equally upright (:func:`carry_upright`
+then keeps the one nearest the voted rotation)."""
 
 
 _HALF_TURNS = np.stack([np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])])
@@ -364,3 +390,95 @@ def clamp_joint_states(
         q[j] += delta
         clamped[j] = True
     return T, q, clamped
+
+
+def upright_angles_deg(cam_from_part: np.ndarray, priors: CategoryPriors) -> np.ndarray:
+    """``(K,)`` angle (degrees) between each part's upright axis and the camera-frame direction the
+    training views held it in (``PartPrior.upright_axis`` / ``upright_in_cam``); NaN for a part without one.
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame).
+    """
+    T = np.asarray(cam_from_part, dtype=np.float64)
+    out = np.full(priors.num_parts, np.nan)
+    for k, pp in enumerate(priors.parts):
+        if pp.upright_axis is not None:
+            c = float(T[k, :3, pp.upright_axis] @ np.asarray(pp.upright_in_cam))
+            out[k] = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+    return out
+
+
+def carry_upright(
+    cam_from_part: np.ndarray, size_m: np.ndarray, priors: CategoryPriors, margin_deg: float = UPRIGHT_MARGIN_DEG
+) -> tuple[np.ndarray, np.ndarray]:
+    """Re-place, from a neighbour through their joint, each part voted far off its upright.
+
+    A part ``k`` with an upright prior whose axis lies more than ``upright_cone_deg + margin_deg`` from
+    ``upright_in_cam`` (:func:`upright_angles_deg`) is implausible for the views the model was trained
+    on. For each joint linking it to a neighbour ``o`` that is not itself implausible, the part is
+    turned with ``o`` through the joint: revolute joints try :data:`_CARRY_STEPS` states over the
+    limits (``R_k = R_o Rot(a, q)^T`` for a parent, ``R_o Rot(a, q)`` for a child, ``a`` the canonical
+    axis) and keep the one nearest the upright (of equally upright ones, as when the joint turns about
+    the upright axis itself, the one nearest the voted rotation); prismatic joints give ``R_k = R_o``. The neighbour
+    whose best state brings the part nearest its upright wins, when that is inside the cone plus the
+    margin. The part's centre then follows from where the joint axis passes in both unit boxes
+    (``pivot_in_parent`` / ``pivot_in_child`` times the box extents); without those (prismatic joints,
+    priors that lack them) it keeps its voted centre. Sizes are kept.
+
+    This assumes what the training views show: an upright camera (little roll) looking from the
+    category's elevations. Turn it off for other cameras (``Estimator(upright=False)``).
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` voted poses; size_m: ``(K, 3)`` voted box extents (metres).
+        priors: the category's priors.
+        margin_deg: tolerance beyond the training cone, degrees.
+
+    Returns:
+        ``(cam_from_part, carried)``: a copy with the re-placed parts, and ``(K,)`` bool.
+    """
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    K = priors.num_parts
+    carried = np.zeros(K, dtype=bool)
+    if priors.num_joints == 0:
+        return T, carried
+    limit = np.array([np.nan if p.upright_cone_deg is None else p.upright_cone_deg + float(margin_deg) for p in priors.parts])
+    bad = upright_angles_deg(T, priors) > limit  # NaN compares False: parts without a prior are never bad
+    for k in np.flatnonzero(bad):  # a handful of parts
+        pp = priors.parts[k]
+        up = np.asarray(pp.upright_in_cam)
+        best = (np.inf, None, None)
+        for jp in priors.joints:
+            if k not in (jp.parent, jp.child):
+                continue
+            o = jp.child if k == jp.parent else jp.parent
+            if bad[o] and not carried[o]:
+                continue
+            Ro = T[o, :3, :3]
+            if jp.type == JointType.REVOLUTE:
+                lo, hi = jp.limits
+                q = np.linspace(-np.pi if lo is None else lo, np.pi if hi is None else hi, _CARRY_STEPS)
+                G = rotation_about_axis(jp.axis, q)  # (Q, 3, 3)
+                Rk = Ro @ G.transpose(0, 2, 1) if k == jp.parent else Ro @ G
+            else:
+                Rk = Ro[None]
+            ang = np.degrees(np.arccos(np.clip(Rk[:, :, pp.upright_axis] @ up, -1.0, 1.0)))
+            # Among the states within _TIE_DEG of the best (all of them when the joint turns about the
+            # upright axis itself), the one nearest the voted rotation.
+            near = np.flatnonzero(ang <= ang.min() + _TIE_DEG)
+            i = int(near[np.argmax(np.einsum("qij,ij->q", Rk[near], T[k, :3, :3]))])
+            if ang[i] < best[0]:
+                best = (float(ang[i]), Rk[i], jp)
+        err, Rk, jp = best
+        if jp is None or not err <= limit[k]:
+            continue
+        o = jp.child if k == jp.parent else jp.parent
+        t = T[k, :3, 3].copy()
+        if jp.pivot_in_parent is not None:
+            f_o, f_k = (jp.pivot_in_child, jp.pivot_in_parent) if k == jp.parent else (jp.pivot_in_parent, jp.pivot_in_child)
+            foot = T[o, :3, :3] @ (np.asarray(f_o) * S[o]) + T[o, :3, 3]
+            t = foot - Rk @ (np.asarray(f_k) * S[k])
+        T[k, :3, :3] = Rk
+        T[k, :3, 3] = t
+        carried[k] = True
+    return T, carried

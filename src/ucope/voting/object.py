@@ -10,7 +10,14 @@ import numpy as np
 from ..geometry.kinematics import joint_state_from_poses
 from ..priors import CategoryPriors
 from .joints import vote_joints
-from .kinematic import ShapeIndex, clamp_joint_states, kinematic_refine, resolve_joint_flips, resolve_shape_flips
+from .kinematic import (
+    ShapeIndex,
+    carry_upright,
+    clamp_joint_states,
+    kinematic_refine,
+    resolve_joint_flips,
+    resolve_shape_flips,
+)
 from .part import VotingOptions, vote_parts
 
 __all__ = ["vote_object", "regressed_object", "regression_scores", "part_fit"]
@@ -30,6 +37,7 @@ def vote_object(
     axis_heads=None,
     shapes: ShapeIndex | None = None,
     score_filter: bool | None = None,
+    upright: bool = True,
 ) -> dict[str, Any]:
     """:func:`ucope.voting.part.vote_parts` + :func:`ucope.voting.joints.vote_joints` + joint states.
 
@@ -38,7 +46,9 @@ def vote_object(
     :func:`ucope.voting.kinematic.resolve_shape_flips`), and a part of an articulated object whose
     rotation is a half turn away from what its revolute joint allows is turned back
     (:func:`ucope.voting.kinematic.resolve_joint_flips`; the shape check applies to rigid objects
-    only, docs/voting.md says why).
+    only, docs/voting.md says why). With ``upright`` (default) a part voted far off the upright the
+    training views kept it in is re-placed from a neighbour through their joint
+    (:func:`ucope.voting.kinematic.carry_upright`).
     Joint states come from the voted poses (:func:`ucope.geometry.kinematics.joint_state_from_poses`)
     about the voted joint axis (revolute), or from the box supports minus the joint's
     ``zero_offset_m`` (prismatic). With
@@ -54,7 +64,8 @@ def vote_object(
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
         ``(J,)``; ``flipped`` ``(K,)`` bool marks the parts turned back by the joint checks and
-        ``shape_turned`` ``(K,)`` those turned by the shape check; ``joint_clamped`` ``(J,)`` the joints
+        ``shape_turned`` ``(K,)`` those turned by the shape check; ``carried`` ``(K,)`` those re-placed
+        from a neighbour (``upright``); ``joint_clamped`` ``(J,)`` the joints
         whose state was brought back into its limits; ``refined`` tells whether the kinematic refinement ran.
     """
     score_filter = awareness if score_filter is None else score_filter
@@ -69,7 +80,7 @@ def vote_object(
         out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(
             out["cam_from_part"], out["size_m"], pts, [np.unique(i) for i in idx], priors, shapes
         )
-    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
+    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips, upright=upright)
 
 
 BOX_FIT_MARGIN = 0.55
@@ -140,6 +151,7 @@ def regressed_object(
     awareness: bool = True,
     refine: bool = False,
     resolve_flips: bool = True,
+    upright: bool = True,
 ) -> dict[str, Any]:
     """The same dict as :func:`vote_object` for the direct-regression baseline
     (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
@@ -161,7 +173,7 @@ def regressed_object(
         "score": regression_scores(np.asarray(points, np.float64), prob, T, size),
         "num_pairs": np.zeros(K, dtype=np.int64),
     }
-    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips)
+    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips, upright=upright)
 
 
 def _with_joints(
@@ -173,15 +185,20 @@ def _with_joints(
     refine: bool,
     resolve_flips: bool = True,
     clamp_states: bool = True,
+    upright: bool = True,
 ) -> dict[str, Any]:
     """Add the joints (:func:`vote_joints`), undo half-turn flips that contradict them
-    (:func:`resolve_joint_flips`), then the joint states, clamped into the limits
+    (:func:`resolve_joint_flips`), re-place parts voted far off their upright (:func:`carry_upright`,
+    with ``upright``), then the joint states, clamped into the limits
     (:func:`clamp_joint_states`, the joint score halved where clamped), and the optional refinement."""
     out.update(vote_joints(points, outputs, priors, awareness=awareness))
     J = priors.num_joints
     out["flipped"] = np.zeros(priors.num_parts, dtype=bool)
     if resolve_flips and J > 0:
         out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], priors, out["size_m"])
+    out["carried"] = np.zeros(priors.num_parts, dtype=bool)
+    if upright and J > 0:
+        out["cam_from_part"], out["carried"] = carry_upright(out["cam_from_part"], out["size_m"], priors)
     T, S = out["cam_from_part"], out["size_m"]
     state = np.zeros(J)
     for j, jp in enumerate(priors.joints):  # a handful of joints

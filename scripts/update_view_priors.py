@@ -1,0 +1,62 @@
+"""Measure a model's upright axes and revolute pivots on training views and write them into its JSON.
+
+    python scripts/update_view_priors.py --model src/ucope/pretrained/laptop.json --data DATA [--num 2000]
+
+``ucope train`` measures these priors (``PartPrior.upright_*``, ``JointPrior.pivot_in_parent`` /
+``pivot_in_child``: :func:`ucope.priors.measure_priors`) with all the others. This script adds them to a
+model trained before they existed, leaving every other prior, the weights and the model card alone,
+so that its predictions change only where :func:`ucope.voting.kinematic.carry_upright` re-places a part.
+``DATA`` is a data set of the model's category made by ``ucope generate`` (training split). The JSON is
+rewritten atomically; ``info.view_priors_from`` records the data set and how many views were used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+from ucope.data.dataset import load_dataset  # noqa: E402
+from ucope.fileio import atomic_write_json, read_json  # noqa: E402
+from ucope.priors import measure_priors  # noqa: E402
+
+PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg")
+JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--model", required=True, help="the model's JSON file")
+    ap.add_argument("--data", required=True, help="training views of the model's category (ucope generate)")
+    ap.add_argument("--num", type=int, default=2000, help="at most this many views, evenly spaced")
+    args = ap.parse_args(argv)
+    meta = read_json(args.model)
+    pri = meta["config"]["priors"]
+    ds = load_dataset(args.data)
+    if ds.meta.get("category") != pri["category"]:
+        have = ds.meta.get("category")
+        print(f"error: {args.data} holds {have!r} views, the model is a {pri['category']!r} model", file=sys.stderr)
+        return 2
+    new = measure_priors(ds, pri["category"], ds.meta["structure"], max_samples=args.num, template_samples=1).to_dict()
+    for old, fresh in zip(pri["parts"], new["parts"], strict=True):
+        old.update({k: fresh[k] for k in PART_FIELDS})
+    for old, fresh in zip(pri["joints"], new["joints"], strict=True):
+        old.update({k: fresh[k] for k in JOINT_FIELDS})
+    meta.setdefault("info", {})["view_priors_from"] = {"data": str(args.data), "num_samples": new["num_samples"]}
+    atomic_write_json(args.model, meta)
+    for p in pri["parts"]:
+        if p["upright_axis"] is None:
+            print(f"{p['name']}: no upright axis")
+        else:
+            print(f"{p['name']}: axis {'xyz'[p['upright_axis']]} upright, cone {p['upright_cone_deg']:.1f} deg")
+    for j in pri["joints"]:
+        if j["pivot_in_parent"] is not None:
+            print(f"joint {j['parent']}->{j['child']}: pivot in parent {[round(v, 3) for v in j['pivot_in_parent']]}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
