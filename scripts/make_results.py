@@ -834,6 +834,31 @@ def main() -> int:
             )
         out.append("")
 
+    # ------------------------------------------------------------------------------- camera roll
+    br = args.bench / "results_roll.json"
+    if br.is_file():
+        b = json.loads(br.read_text())
+        st = b["settings"]
+        rolls = [f"{r:g}" for r in st["rolls_deg"]]
+        out += [
+            "## Cameras that are not upright",
+            "",
+            f"`python benchmarks/bench_roll.py`: {st['num']} unseen test views per model (seed {st['seed']}, "
+            f"{st['pairs']:,} pairs), the camera rolled about its optical axis by each angle "
+            "(`ucope.data.sample.roll_sample`). The models were trained on upright cameras (3 degrees of roll). Each "
+            "cell: success % without the upright carry (`upright=False`) / with the defaults / with the world's up "
+            "direction given (`predict(points, up=...)`, `--up X Y Z`: the cloud is turned back to an upright camera "
+            f"first); success = {b['success']}.",
+            "",
+            "| model | " + " | ".join(f"roll {r} deg" for r in rolls) + " |",
+            "|---|" + "---|" * len(rolls),
+        ]
+        for name, m in b["models"].items():
+            keys = ("no_carry", "default", "up_given")
+            row = [" / ".join(f"{100 * m['rolls'][r][k]['success']:.0f}" for k in keys) for r in rolls]
+            out.append(f"| {name} | " + " | ".join(row) + " |")
+        out.append("")
+
     # --------------------------------------------------------------------------------------- speed
     bp, bt = args.bench / "results_predict.json", args.bench / "results_train.json"
     if bp.is_file() or bt.is_file():

@@ -76,3 +76,24 @@ def test_clear_errors_without_traceback(tmp_path, capsys, argv, message):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_predict_with_the_up_direction(tmp_path, capsys):
+    """``ucope predict --up``: a rolled camera's cloud is turned to image up (a warning says by how much);
+    an up along the optical axis is refused with a clear error (the cloud fails alone: exit 2)."""
+    import json
+
+    import numpy as np
+
+    from ucope.data.generate import GenerateConfig, make_sample
+
+    s = make_sample(GenerateConfig(category="mug", split="test", num=1, views_per_instance=1), 0)
+    np.save(tmp_path / "cloud.npy", s["points"])
+    out = tmp_path / "r.json"
+    base = ["predict", "--model", "mug", "--input", str(tmp_path / "cloud.npy"), "--pairs", "2000", "--quiet", "--out", str(out)]
+    assert main([*base, "--up", "1", "0", "0"]) == 0
+    warnings = json.loads(out.read_text())["warnings"]
+    assert any("turned -90 degrees about the optical axis" in w for w in warnings)
+    assert main([*base, "--up", "0", "0", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "within 10 degrees of the optical axis" in err and "Traceback" not in err

@@ -412,7 +412,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     for name, load in jobs:
         try:
             pts, nrm, s, units = load()
-            res = est.predict(pts, None if args.ignore_normals else nrm, units=units)
+            res = est.predict(pts, None if args.ignore_normals else nrm, units=units, up=args.up)
             d = res.to_dict()
             if s is not None:
                 from ..eval.evaluate import sample_errors
@@ -700,6 +700,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pr.add_argument("--units", choices=["m", "cm", "mm"], default="m", help="length unit of the --input clouds (default m)")
     pr.add_argument("--ignore-normals", action="store_true", help="estimate normals even when the file holds some")
+    pr.add_argument(
+        "--up",
+        type=float,
+        nargs=3,
+        default=None,
+        metavar=("X", "Y", "Z"),
+        help="the world's up direction in the camera frame (e.g. from an IMU): the cloud is turned about the optical "
+        "axis to take out the camera's roll for the estimate (the models were trained on upright cameras)",
+    )
     pr.add_argument("--depth", help="depth PNG (16-bit; see --depth-scale)")
     pr.add_argument("--intrinsics", help="camera intrinsics JSON (fx, fy, cx, cy or K / cam_K)")
     pr.add_argument("--mask", help="object mask PNG (non-zero = object, or see --mask-label)")

@@ -192,6 +192,9 @@ def predict_instances(args: argparse.Namespace) -> int:
         refine=args.refine,
         seed=args.seed,
         resolve_flips=not args.keep_flips,
+        upright=not args.no_upright,
+        rescale=not args.no_rescale,
+        remove_plane=args.remove_plane,
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,
@@ -205,6 +208,7 @@ def predict_instances(args: argparse.Namespace) -> int:
         depth_scale=args.depth_scale,
         estimator_options=opts,
         source={"depth": str(args.depth), "mask": str(args.mask), "rgb": args.rgb},
+        up=args.up,
     )
     out = fr.save(args.out)
     for o in fr.objects:

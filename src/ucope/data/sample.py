@@ -41,7 +41,15 @@ from ..render.camera import PinholeCamera
 from ..render.views import RenderedView
 from ..vocab import JointType
 
-__all__ = ["SAMPLE_ARRAY_FIELDS", "BACKGROUND_FIELDS", "sample_from_view", "check_sample", "background_fields", "scale_sample"]
+__all__ = [
+    "SAMPLE_ARRAY_FIELDS",
+    "BACKGROUND_FIELDS",
+    "sample_from_view",
+    "check_sample",
+    "background_fields",
+    "scale_sample",
+    "roll_sample",
+]
 
 BACKGROUND_FIELDS = ("bg_points", "bg_rank", "bg_clutter")
 """The optional per-sample background pool (see the module table)."""
@@ -191,4 +199,34 @@ def scale_sample(sample: dict, factor: float, centre=None) -> dict:
         out["joint_state"] = np.where(jt == int(JointType.PRISMATIC), f * state, state)
     if "bg_points" in sample:
         out["bg_points"] = move(sample["bg_points"], np.float32)
+    return out
+
+
+def roll_sample(sample: dict, angle_rad: float) -> dict:
+    """The sample of the same view seen by the camera rolled by ``-angle_rad`` about its optical axis:
+    every camera-frame quantity turned by ``Rz = Rot(z, angle_rad)`` (points, normals, the background
+    pool, part and object poses, joint pivots and axes); sizes, states and labels are kept. (A depth
+    image turned in its plane, about the principal point.) Returns a new dict; ``sample`` is not changed.
+
+    Raises:
+        InputError: an angle that is not a finite number.
+    """
+    a = float(angle_rad) if isinstance(angle_rad, int | float | np.floating | np.integer) else float("nan")
+    if not np.isfinite(a):
+        raise InputError(f"roll angle must be a finite number of radians, got {angle_rad!r}")
+    c, s_ = np.cos(a), np.sin(a)
+    R = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+    out = dict(sample)
+    for key in ("points", "normals", "bg_points"):
+        if key in sample:
+            out[key] = (np.asarray(sample[key], np.float64) @ R.T).astype(np.asarray(sample[key]).dtype)
+    T = np.array(sample["cam_from_part"], np.float64)
+    T[:, :3, :] = np.einsum("ij,kjl->kil", R, T[:, :3, :])
+    out["cam_from_part"] = T
+    To = np.array(sample["cam_from_object"], np.float64)
+    To[:3, :] = R @ To[:3, :]
+    out["cam_from_object"] = To
+    if len(np.asarray(sample["joint_type"])):
+        out["joint_pivot"] = np.asarray(sample["joint_pivot"], np.float64) @ R.T
+        out["joint_axis"] = np.asarray(sample["joint_axis"], np.float64) @ R.T
     return out

@@ -40,7 +40,7 @@ from ..priors import cloud_radius
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
 from .confidence import Calibration, part_features
-from .inputs import MIN_POINTS, NORMAL_K, find_support_plane, label_points, prepare_points, rgbd_points
+from .inputs import MIN_POINTS, NORMAL_K, find_support_plane, label_points, prepare_points, rgbd_points, roll_to_up
 from .result import JointEstimate, PartEstimate, PoseResult
 
 __all__ = ["Estimator", "MAX_PAIRS", "EXTENT_REFUSE", "EXTENT_WARN"]
@@ -196,7 +196,7 @@ class Estimator:
         return self.cfg.category
 
     # ---------------------------------------------------------------------------------- prediction
-    def predict(self, points, normals=None, units: str = "m") -> PoseResult:
+    def predict(self, points, normals=None, units: str = "m", up=None) -> PoseResult:
         """Estimate the pose of the object whose (segmented) cloud ``points`` is.
 
         Args:
@@ -205,6 +205,10 @@ class Estimator:
             normals: optional normals of the points' shape (any sign and length: normalised and turned
                 to face the camera); estimated when ``None``.
             units: ``"m"`` (default), ``"cm"`` or ``"mm"``; results are always in metres.
+            up: optional ``(3,)`` the world's up direction in the camera frame (from an IMU, the robot's
+                kinematics or a known mounting). The models were trained on upright cameras (3 degrees
+                of roll); with ``up`` the cloud is first turned about the optical axis to take out the
+                camera's roll (:func:`ucope.estimation.inputs.roll_to_up`), and the result turned back.
 
         Returns:
             a :class:`PoseResult`: ``part_labels`` has one entry per input point (an organised cloud
@@ -216,9 +220,15 @@ class Estimator:
                 :data:`EXTENT_REFUSE` times outside the model's training range (with a hint at the units).
         """
         t0 = time.perf_counter()
-        prep = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False, units=units)
+        roll = None if up is None else roll_to_up(up)
+        prep = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False, units=units, rotation=roll)
         pts, nrm, raw, finite = prep.points, prep.normals, prep.raw, prep.finite
         warnings = list(prep.warnings)
+        if roll is not None and abs(np.degrees(np.arctan2(roll[1, 0], roll[0, 0]))) > 1.0:
+            warnings.append(
+                f"the cloud was turned {np.degrees(np.arctan2(roll[1, 0], roll[0, 0])):.0f} degrees about the optical axis "
+                "to put the given up direction at image up for the estimate; the result is turned back"
+            )
         plane = find_support_plane(pts, seed=self.seed) if self.remove_plane else None
         if plane is not None and np.count_nonzero(keep := ~plane.removes(pts)) >= MIN_POINTS:
             pts, nrm = pts[keep], (None if nrm is None else nrm[keep])
@@ -306,6 +316,8 @@ class Estimator:
         if scale != 1.0:
             v = self._scale_back(v, scale, centre)
             p_net = (centre + (p_net - centre) / scale).astype(np.float32)
+        if roll is not None:  # the labels below are carried over in the turned frame: p_net and raw stay in it
+            v = self._turn_back(v, roll)
         parts, joints = self._estimates(v, scores)
         for k in np.flatnonzero(carried):
             warnings.append(
@@ -388,6 +400,19 @@ class Estimator:
             prismatic = np.array([jp.type == JointType.PRISMATIC for jp in self.priors.joints])
             state = np.where(prismatic, np.asarray(v["joint_state"], np.float64) / scale, v["joint_state"])
             v["joint_state"] = state
+        return v
+
+    @staticmethod
+    def _turn_back(v: dict, roll: np.ndarray) -> dict:
+        """The estimate ``v`` made on the cloud turned by ``roll`` (``p R^T``), for the cloud itself: poses,
+        pivots and axes turned by ``R^T``; sizes and states are kept."""
+        v = dict(v)
+        T = np.array(v["cam_from_part"], np.float64)
+        T[:, :3, :] = np.einsum("ji,kjl->kil", roll, T[:, :3, :])
+        v["cam_from_part"] = T
+        for key in ("joint_pivot", "joint_axis"):
+            if key in v and len(v[key]):
+                v[key] = np.asarray(v[key], np.float64) @ roll
         return v
 
     def _extent_warnings(self, pts: np.ndarray, units: str) -> list[str]:

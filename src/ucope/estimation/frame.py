@@ -146,6 +146,7 @@ def predict_frame(
     estimator_options: Mapping | None = None,
     keep_going: bool = True,
     source: Mapping | None = None,
+    up=None,
 ) -> FrameResult:
     """Estimate every instance of a frame with its own model.
 
@@ -161,6 +162,7 @@ def predict_frame(
             ``result=None`` and an ``error``; ``False`` raises instead.
         source: what to record under ``"source"`` (file names...); intrinsics, image size and depth
             scale are added.
+        up: optional ``(3,)`` the world's up direction in the camera frame (see :meth:`Estimator.predict`).
 
     Returns:
         a :class:`FrameResult` with one object per entry of ``models``, in increasing id order.
@@ -203,7 +205,7 @@ def predict_frame(
         npix = int(np.count_nonzero(valid))
         try:
             pts = rgbd_points(d, intrinsics, mask=sel, depth_scale=depth_scale)
-            res = est.predict(pts)
+            res = est.predict(pts, up=up)
             objects.append(FrameObject(int(iid), name, res, npix, points=pts))
         except InputError as e:
             if not keep_going:

@@ -4,6 +4,7 @@
   nested sequences, optional normals), convert its units, drop rows without a measurement, check that it
   looks like one object in the camera frame, put it in a canonical order and subsample it;
 * :func:`rgbd_points`: back-project a depth image (with a mask and / or a box) into the object's cloud;
+* :func:`roll_to_up`: the turn about the optical axis that brings a known up direction to image up;
 * :func:`label_points`: carry the labels of the network's points over to every input point;
 * :func:`find_support_plane`: the floor or table a segmented object stands on, when the mask let it in
   (:class:`SupportPlane`; the estimator removes it where the model's default says so).
@@ -28,6 +29,7 @@ from ..errors import InputError
 from ..geometry.normals import estimate_normals
 
 __all__ = [
+    "roll_to_up",
     "MIN_POINTS",
     "NORMAL_K",
     "UNITS",
@@ -115,8 +117,35 @@ def canonical_subset(points: np.ndarray, m: int, seed: int = 0, normals: np.ndar
     return idx[np.lexsort(keys)]
 
 
+def roll_to_up(up) -> np.ndarray:
+    """``(3, 3)`` rotation about the camera's optical axis (z) that turns the world's up direction ``up``
+    (camera frame, any length) so that its image-plane part points to image up (``-y``, OpenCV axes):
+    applied to a cloud (``p @ R.T``), it takes out the camera's roll, as an upright camera would have
+    seen the scene. Raises :class:`InputError` for a non-finite or zero ``up``, or one within 10 degrees
+    of the optical axis (a camera looking straight down or up has no roll to take out)."""
+    u = np.asarray(up, dtype=np.float64).reshape(-1)
+    if u.shape != (3,) or not np.all(np.isfinite(u)) or np.linalg.norm(u) < 1e-12:
+        raise InputError(f"up must be a finite, non-zero 3-vector in the camera frame, got {np.asarray(up).tolist()}")
+    u = u / np.linalg.norm(u)
+    if np.hypot(u[0], u[1]) < np.sin(np.radians(10.0)):
+        raise InputError(
+            f"up {u.round(3).tolist()} lies within 10 degrees of the optical axis: the camera looks straight down or up, "
+            "so it has no roll to take out"
+        )
+    phi = -np.pi / 2 - np.arctan2(u[1], u[0])
+    c, s = np.cos(phi), np.sin(phi)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def prepare_points(
-    points, normals=None, max_points: int = 4096, seed: int = 0, normal_k: int = NORMAL_K, estimate: bool = True, units: str = "m"
+    points,
+    normals=None,
+    max_points: int = 4096,
+    seed: int = 0,
+    normal_k: int = NORMAL_K,
+    estimate: bool = True,
+    units: str = "m",
+    rotation=None,
 ) -> PreparedCloud:
     """Validate and clean a cloud for the network (see the module docstring).
 
@@ -129,6 +158,8 @@ def prepare_points(
         seed: seed of the subset of a larger cloud.
         estimate: ``False`` leaves missing normals to the caller (``normals`` is then ``None``).
         units: ``"m"`` (default), ``"cm"`` or ``"mm"``: the cloud is converted to metres.
+        rotation: optional ``(3, 3)`` rotation applied to the points and normals after the unit
+            conversion and before the canonical order (:func:`roll_to_up`); ``raw`` holds the turned cloud.
 
     Returns:
         :class:`PreparedCloud`.
@@ -156,6 +187,10 @@ def prepare_points(
         if nrm.shape[:-1] != shape or nrm.shape[-1:] != (3,):
             raise InputError(f"normals must have the points' shape {(*shape, 3)}, got {nrm.shape}")
         nrm = nrm.reshape(-1, 3)
+    if rotation is not None:
+        R = np.asarray(rotation, dtype=np.float64)
+        pts = pts @ R.T
+        nrm = None if nrm is None else nrm @ R.T
     finite = np.isfinite(pts).all(axis=1)
     if nrm is not None:
         finite &= np.isfinite(nrm).all(axis=1) & (np.abs(nrm).sum(axis=1) > 0)
