@@ -14,7 +14,12 @@ figures of its ``ucope eval`` report (``info.test``), which ``ucope models`` pri
 only refreshes the shipped models' ``info.test`` from new reports of those same models (e.g. after a
 change to the voting), leaving their weights alone.
 
-Both modes also set the model's default for the kinematic refinement (``info.defaults.refine``, which
+    python scripts/package_models.py --set-defaults --runs work/runs --reports work/reports --categories eyeglasses
+
+writes only that default into the runs' own ``model.json`` (so that what is measured on a run before it
+is packaged, its score calibration above all, sees the run as it will ship).
+
+Every mode also sets the model's default for the kinematic refinement (``info.defaults.refine``, which
 ``Estimator.load`` and the command line take unless told otherwise) from the reports
 ``<cat>_norefine.json`` and ``<cat>_refine.json`` (``ucope eval --no-refine`` / ``--refine``) when
 both exist: on when it lowers the summed mean rotation error, keeps every part's 10deg10cm fraction
@@ -101,6 +106,19 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
     return 0
 
 
+def set_run_defaults(runs: Path, reports: Path, cats: list[str]) -> int:
+    """``--set-defaults``: :func:`set_defaults` into ``runs/<cat>/model.json``."""
+    from ucope.fileio import atomic_write_json
+
+    for cat in cats:
+        path = runs / cat / "model.json"
+        meta = json.loads(path.read_text())
+        set_defaults(meta.setdefault("info", {}), reports, cat)
+        atomic_write_json(path, meta)
+        print(f"{cat}: defaults {meta['info'].get('defaults')} in {path}")
+    return 0
+
+
 def summary(rep: dict) -> tuple[list, list, list]:
     p = rep["parts"]
     return p["rotation_deg"]["mean"], p["translation_m"]["mean"], p["iou"]["mean"]
@@ -110,6 +128,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=Path, default=None)
     ap.add_argument("--figures-only", action="store_true", help="only refresh the shipped models' test figures from --reports")
+    ap.add_argument(
+        "--set-defaults", action="store_true", help="only write the refinement default into the runs' model.json (--runs)"
+    )
     ap.add_argument("--reports", type=Path, required=True)
     ap.add_argument("--categories", nargs="+", default=None)
     ap.add_argument("--check-num", type=int, default=60)
@@ -129,6 +150,9 @@ def main() -> int:
         return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))])
     if args.runs is None:
         ap.error("--runs is required (unless --figures-only)")
+    if args.set_defaults:
+        cats = args.categories or [p.parent.name for p in args.runs.glob("*/model.json")]
+        return set_run_defaults(args.runs, args.reports, cats)
     dest.mkdir(parents=True, exist_ok=True)
     cats = args.categories or [c for c in CATEGORY_NAMES if (args.runs / c / "model.json").is_file()]
     for cat in cats:

@@ -150,6 +150,11 @@ robust() {  # robust CATEGORY: the robustness stage, runs/CATEGORY_prerobust -> 
       --lr-step-epochs "$(awk -v s="$steps" -v n="$ROBUST_NUM" 'BEGIN { printf "%.3f", 0.8 * s * 8 / n }')" \
       --batch-size 8 --device "$DEVICE" $(category_args "$c") --quiet $resume
   fi
+  case $c in laptop|eyeglasses|dishwasher|scissors|drawer)  # calibrate the run as it will ship: its refinement default
+    evaluate "$c" "$c" "${c}_norefine" --no-refine
+    evaluate "$c" "$c" "${c}_refine" --refine
+    "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" ;;
+  esac
   "$PY" scripts/calibrate_scores.py --models "$run" --num "${CALIBRATE_NUM:-300}" --threads 1
 }
 
