@@ -14,11 +14,12 @@
 # PACKAGE=0 to leave src/ucope/pretrained alone, RESULTS / REPORTS (the page and its slim reports). Every step resumes: finished data sets, runs and reports
 # are kept, an interrupted training continues from its checkpoint.
 #
-# ROBUST_CATS (default: the eight shipped models that went through it) get the robustness stage of
+# ROBUST_CATS (default: the ten shipped models that went through it) get the robustness stage of
 # 2026-12-03 after their recipe: 3,000 steps from that model with `--new-priors --augment 0.65` on 5,000
-# generator-2 views (lr 5e-4, x0.1 at 80 %), then a score calibration (scripts/calibrate_scores.py,
-# 300 validation views); PLANE_CATS leave a support plane out by default. (The shipped mug went through
-# one more augmented stage of 3,000 steps before it; this script makes one.)
+# generator-2 views (lr 5e-4, x0.1 at 80 %; the dishwasher gentler: lr 2e-4, --augment 0.5), then, for
+# an articulated model, its refinement default from its refine-off / on reports, and a score calibration
+# (scripts/calibrate_scores.py, 300 validation views); PLANE_CATS leave a support plane out by default.
+# (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -27,7 +28,7 @@ PY=${PY:-.venv/bin/python}
 WORK=${WORK:-work}
 CATS=${CATS:-"laptop mug eyeglasses drawer scissors dishwasher bottle bowl camera can laptop_rigid"}
 BASELINE_CATS=${BASELINE_CATS-"laptop drawer camera mug"}  # empty: no baseline
-ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors"}  # empty: no robustness stage
+ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors eyeglasses dishwasher"}  # empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
@@ -138,6 +139,10 @@ train() {  # train CATEGORY RUN_NAME [extra train args]
     $(category_args "$cat") --quiet $resume "$@"
 }
 
+robust_args() {  # the robustness stage's augmentation and learning rate of a category
+  case $1 in dishwasher) echo "--augment 0.5 --lr 2e-4" ;; *) echo "--augment 0.65 --lr 5e-4" ;; esac
+}
+
 robust() {  # robust CATEGORY: the robustness stage, runs/CATEGORY_prerobust -> runs/CATEGORY, calibrated
   local c=$1 run="$WORK/runs/$1" steps=${STEPS:-3000} resume=""
   if [ -f "$run/model.json" ] && grep -q '"calibration"' "$run/model.json"; then return 0; fi
@@ -146,7 +151,7 @@ robust() {  # robust CATEGORY: the robustness stage, runs/CATEGORY_prerobust -> 
     if [ -f "$run/checkpoint.json" ]; then resume="--resume"; fi
     # shellcheck disable=SC2086
     "$UCOPE" train --category "$c" --data "$WORK/data/${c}_train_robust" --val-data "$WORK/data/${c}_val" --out "$run" \
-      --init "$WORK/runs/${c}_prerobust" --new-priors --augment 0.65 --steps "$steps" --lr 5e-4 \
+      --init "$WORK/runs/${c}_prerobust" --new-priors $(robust_args "$c") --steps "$steps" \
       --lr-step-epochs "$(awk -v s="$steps" -v n="$ROBUST_NUM" 'BEGIN { printf "%.3f", 0.8 * s * 8 / n }')" \
       --batch-size 8 --device "$DEVICE" $(category_args "$c") --quiet $resume
   fi
