@@ -3,7 +3,8 @@
     python scripts/update_view_priors.py --model src/ucope/pretrained/laptop.json --data DATA [--num 2000]
 
 ``ucope train`` measures these priors (``PartPrior.upright_*``, ``JointPrior.pivot_in_parent`` /
-``pivot_in_child``: :func:`ucope.priors.measure_priors`) with all the others. This script adds them to a
+``pivot_in_child``; with ``--radius`` also ``radius_typical_m``: :func:`ucope.priors.measure_priors`) with
+all the others. This script adds them to a
 model trained before they existed, leaving every other prior, the weights and the model card alone,
 so that its predictions change only where :func:`ucope.voting.kinematic.carry_upright` re-places a part.
 ``DATA`` is a data set of the model's category made by ``ucope generate`` (training split). The JSON is
@@ -32,6 +33,7 @@ def main(argv=None) -> int:
     ap.add_argument("--model", required=True, help="the model's JSON file")
     ap.add_argument("--data", required=True, help="training views of the model's category (ucope generate)")
     ap.add_argument("--num", type=int, default=2000, help="at most this many views, evenly spaced")
+    ap.add_argument("--radius", action="store_true", help="also the typical cloud radii (radius_typical_m, for rescaling)")
     args = ap.parse_args(argv)
     meta = read_json(args.model)
     pri = meta["config"]["priors"]
@@ -45,6 +47,8 @@ def main(argv=None) -> int:
         old.update({k: fresh[k] for k in PART_FIELDS})
     for old, fresh in zip(pri["joints"], new["joints"], strict=True):
         old.update({k: fresh[k] for k in JOINT_FIELDS})
+    if args.radius:
+        pri["radius_typical_m"] = new["radius_typical_m"]
     meta.setdefault("info", {})["view_priors_from"] = {"data": str(args.data), "num_samples": new["num_samples"]}
     atomic_write_json(args.model, meta)
     for p in pri["parts"]:

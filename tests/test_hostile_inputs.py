@@ -152,6 +152,16 @@ def test_millimetres_are_refused_with_a_hint_and_accepted_with_units(mug_sample,
     np.testing.assert_allclose(a.cam_from_part, b.cam_from_part, atol=1e-5)
 
 
+def test_far_stray_points_are_warned_about_not_mistaken_for_other_units(mug_sample, mug):
+    """A mask that let in floor up to the horizon: 15 % of the points 4-6 m away make the 90th-percentile
+    radius far too big, but half of the points still lie within the mug: a warning, not a refusal."""
+    pts = np.asarray(mug_sample["points"], np.float64)
+    rng = np.random.default_rng(0)
+    far = pts[rng.integers(0, len(pts), int(0.15 * len(pts)))] + rng.uniform(4.0, 6.0, (int(0.15 * len(pts)), 1)) * [0, 0.3, 1]
+    res = mug.predict(np.concatenate([pts, far]))
+    assert any("far points that are not the object" in w for w in res.warnings)
+
+
 def test_depth_in_the_wrong_scale_or_8_bit_is_refused():
     depth = np.full((40, 40), 800, dtype=np.uint16)  # 0.8 m in millimetres
     K = (50.0, 50.0, 20.0, 20.0)

@@ -40,6 +40,8 @@ def test_measured_priors_bound_the_vote_parameters_and_round_trip():
             if len(pts):
                 assert np.linalg.norm(pts - s["cam_from_part"][k][:3, 3], axis=1).max() <= pri.parts[k].vote_range_m
     assert 0.05 < pri.norm_scale_m < 0.5
+    lo, hi = pri.radius_range_m
+    assert lo <= pri.radius_typical_m[0] <= pri.radius_typical_m[1] <= hi
     assert math.isclose(pri.parts[0].mean_size_m[0], pri.parts[1].mean_size_m[0], rel_tol=1e-6)  # lid as wide as the base
     (j,) = pri.joints
     assert j.type == JointType.REVOLUTE and j.limits == (0.35, 2.6) and j.zero_offset_m == 0.0

@@ -227,6 +227,9 @@ class CategoryPriors:
         radius_range_m: ``(smallest, largest)`` :func:`cloud_radius` of the training views: the sizes
             of cloud the model knows (a cloud far outside it is in other units, or another object);
             ``None`` when not measured.
+        radius_typical_m: ``(2nd, 98th)`` percentiles of the same radii: the sizes of cloud the model saw
+            often (the estimator rescales clouds below them, and into them,
+            :meth:`ucope.Estimator.input_scale`); ``None`` when not measured (``radius_range_m`` serves).
         shape_templates: per part, ``(P_k, 3)`` float32 surface points in the part's unit box (part frame
             divided by the box extents), seen over the category's instances; ``()`` when not measured
             (the rigid shape-flip check is then skipped).
@@ -238,6 +241,7 @@ class CategoryPriors:
     norm_scale_m: float = 1.0
     num_samples: int = 0
     radius_range_m: tuple[float, float] | None = None
+    radius_typical_m: tuple[float, float] | None = None
     shape_templates: tuple[np.ndarray, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
@@ -266,6 +270,11 @@ class CategoryPriors:
             if lo > hi:
                 raise InputError(f"radius_range_m must be (smallest, largest), got {self.radius_range_m}")
             object.__setattr__(self, "radius_range_m", (lo, hi))
+        if self.radius_typical_m is not None:
+            lo, hi = (float(v) for v in _finite(self.radius_typical_m, "radius_typical_m", True).reshape(2))
+            if lo > hi:
+                raise InputError(f"radius_typical_m must be (low, high), got {self.radius_typical_m}")
+            object.__setattr__(self, "radius_typical_m", (lo, hi))
         templates = tuple(np.ascontiguousarray(t, dtype=np.float32).reshape(-1, 3) for t in self.shape_templates)
         if templates and len(templates) != K:
             raise InputError(f"category {self.category!r}: {len(templates)} shape templates for {K} parts")
@@ -316,6 +325,7 @@ class CategoryPriors:
             "norm_scale_m": self.norm_scale_m,
             "num_samples": int(self.num_samples),
             "radius_range_m": None if self.radius_range_m is None else list(self.radius_range_m),
+            "radius_typical_m": None if self.radius_typical_m is None else list(self.radius_typical_m),
         }
 
     def tensors(self) -> dict[str, np.ndarray]:
@@ -364,6 +374,7 @@ class CategoryPriors:
                 norm_scale_m=d["norm_scale_m"],
                 num_samples=int(d.get("num_samples", 0)),
                 radius_range_m=None if rr is None else tuple(rr),
+                radius_typical_m=_tuple_or_none(d.get("radius_typical_m")),
                 shape_templates=templates,
             )
         except (KeyError, TypeError, ValueError) as e:
@@ -523,9 +534,10 @@ def measure_priors(
         template_samples: samples (evenly spaced) whose points make the shape templates.
 
     The statistics: vote range 1.1 x the largest half box diagonal, mean size = geometric mean, input
-    scale = mean cloud radius, the range of :func:`cloud_radius`, prismatic zero offsets and part placements at
-    the true poses, joint limits = the declared limits widened to every state seen, revolute pivots
-    in the parts' unit boxes (:func:`pivot_offsets`) and the upright axes (:func:`upright_statistics`).
+    scale = mean cloud radius, the range of :func:`cloud_radius` and its 2nd-98th percentiles, prismatic
+    zero offsets and part placements at the true poses, joint limits = the declared limits widened to
+    every state seen, revolute pivots in the parts' unit boxes (:func:`pivot_offsets`) and the upright
+    axes (:func:`upright_statistics`).
     Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
@@ -600,5 +612,6 @@ def measure_priors(
         norm_scale_m=float(np.mean(radii)),
         num_samples=len(idx),
         radius_range_m=(min(robust), max(robust)),
+        radius_typical_m=tuple(float(v) for v in np.percentile(robust, [2.0, 98.0])),
         shape_templates=templates,
     )

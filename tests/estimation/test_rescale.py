@@ -81,3 +81,27 @@ def test_scale_sample_keeps_every_point_where_it_was_in_its_part():
     assert np.array_equal(t["normals"], s["normals"]) and t is not s and s["size_m"] is not t["size_m"]
     with pytest.raises(InputError, match="positive finite"):
         scale_sample(s, 0.0)
+
+
+def test_rescaling_triggers_below_the_typical_radii_and_above_the_largest(drawer):
+    """``input_scale``: a cloud smaller than the radii the model saw often (``radius_typical_m``) or larger
+    than any it saw (``radius_range_m``) goes to the middle of the typical radii; one between the typical
+    and the largest radius (a floor or a bleeding mask widen a cloud too) is left alone."""
+    import dataclasses
+
+    s, est0 = drawer
+    est = Estimator(est0.model, num_pairs=2000)
+    r = cloud_radius(s["points"])
+    cases = [  # (typical, range, rescaled)
+        ((1.2 * r, 2.0 * r), (0.5 * r, 3.0 * r), True),  # below the typical radii
+        ((0.3 * r, 0.8 * r), (0.2 * r, 1.5 * r), False),  # above them, inside the range
+        ((0.3 * r, 0.8 * r), (0.2 * r, 0.9 * r), True),  # above the largest
+        (None, (0.5 * r, 3.0 * r), False),  # no typical radii: the range decides
+    ]
+    for typical, full, rescaled in cases:
+        est.priors = dataclasses.replace(est0.priors, radius_typical_m=typical, radius_range_m=full)
+        scale, _ = est.input_scale(s["points"])
+        if rescaled:
+            assert scale == pytest.approx(np.sqrt(typical[0] * typical[1]) / r)
+        else:
+            assert scale == 1.0
