@@ -18,8 +18,6 @@ Writes ``benchmarks/results_roll.json``; ``scripts/make_results.py`` puts its ta
 from __future__ import annotations
 
 import argparse
-import datetime
-import platform
 import sys
 import time
 from pathlib import Path
@@ -27,12 +25,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ucope import __version__
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.sample import roll_sample
 from ucope.estimation import Estimator
 from ucope.eval.evaluate import sample_errors, view_success
-from ucope.fileio import atomic_write_json
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_scale import write_results  # noqa: E402
 
 MODELS = ("laptop", "scissors", "drawer", "camera", "mug")
 ROLLS_DEG = (0.0, 20.0, 45.0, 90.0, 180.0)
@@ -94,18 +93,8 @@ def main(argv=None) -> None:
     torch.set_num_threads(args.threads)
     t0 = time.perf_counter()
     models = {m: run_model(m, args.num, args.seed, args.rolls, args.pairs) for m in args.models}
-    res = {
-        "format": "ucope-roll/1",
-        "ucope": __version__,
-        "date": datetime.date.today().isoformat(),
-        "settings": {"num": args.num, "seed": args.seed, "rolls_deg": args.rolls, "pairs": args.pairs},
-        "success": "every part < 10 deg and < 10 % of its box diagonal",
-        "models": models,
-        "time_s": time.perf_counter() - t0,
-        "hardware": {"platform": platform.platform(), "torch": torch.__version__, "threads": args.threads},
-    }
-    atomic_write_json(args.out, res)
-    print(f"wrote {args.out} ({res['time_s'] / 60:.1f} min)")
+    settings = {"num": args.num, "seed": args.seed, "rolls_deg": args.rolls, "pairs": args.pairs}
+    write_results(args.out, "ucope-roll/1", settings, models, t0, args.threads)
 
 
 if __name__ == "__main__":

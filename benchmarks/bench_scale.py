@@ -106,18 +106,27 @@ def main(argv=None) -> None:
     torch.set_num_threads(args.threads)
     t0 = time.perf_counter()
     models = {m: run_model(m, args.num, args.seed, args.factors, args.pairs, args.model_dir) for m in args.models}
+    settings = {"num": args.num, "seed": args.seed, "factors": args.factors, "pairs": args.pairs}
+    write_results(args.out, "ucope-scale/1", settings, models, t0, args.threads)
+
+
+def write_results(out: Path, fmt: str, settings: dict, models: dict, t0: float, threads: int) -> dict:
+    """Write a view benchmark's results (``benchmarks/bench_scale.py``, ``bench_roll.py``) atomically:
+    format, version, date, settings, the success rule, per-model results, wall time since ``t0``
+    (``time.perf_counter``) and the machine."""
     res = {
-        "format": "ucope-scale/1",
+        "format": fmt,
         "ucope": __version__,
         "date": datetime.date.today().isoformat(),
-        "settings": {"num": args.num, "seed": args.seed, "factors": args.factors, "pairs": args.pairs},
+        "settings": settings,
         "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its box diagonal",
         "models": models,
         "time_s": time.perf_counter() - t0,
-        "hardware": {"platform": platform.platform(), "torch": torch.__version__, "threads": args.threads},
+        "hardware": {"platform": platform.platform(), "torch": torch.__version__, "threads": threads},
     }
-    atomic_write_json(args.out, res)
-    print(f"wrote {args.out} ({res['time_s'] / 60:.1f} min)")
+    atomic_write_json(out, res)
+    print(f"wrote {out} ({res['time_s'] / 60:.1f} min)")
+    return res
 
 
 if __name__ == "__main__":

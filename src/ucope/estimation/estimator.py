@@ -224,9 +224,10 @@ class Estimator:
         prep = prepare_points(points, normals, self.max_input_points, self.seed, estimate=False, units=units, rotation=roll)
         pts, nrm, raw, finite = prep.points, prep.normals, prep.raw, prep.finite
         warnings = list(prep.warnings)
-        if roll is not None and abs(np.degrees(np.arctan2(roll[1, 0], roll[0, 0]))) > 1.0:
+        turned_deg = 0.0 if roll is None else float(np.degrees(np.arctan2(roll[1, 0], roll[0, 0])))
+        if abs(turned_deg) > 1.0:
             warnings.append(
-                f"the cloud was turned {np.degrees(np.arctan2(roll[1, 0], roll[0, 0])):.0f} degrees about the optical axis "
+                f"the cloud was turned {turned_deg:.0f} degrees about the optical axis "
                 "to put the given up direction at image up for the estimate; the result is turned back"
             )
         plane = find_support_plane(pts, seed=self.seed) if self.remove_plane else None
@@ -430,13 +431,14 @@ class Estimator:
         lo, hi = rng
         # A cloud in other units is scaled as a whole: its half-way radius grows with it. A few far points
         # (a floor seen to the horizon) raise the 90th-percentile radius alone: warned, not refused.
-        core = 2.0 * float(np.median(np.linalg.norm(pts - np.median(pts, axis=0), axis=1)))
-        if r > hi * EXTENT_REFUSE and core <= hi * EXTENT_REFUSE:
-            return [
-                f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
-                f"{self.category} model was trained on, but half of its points lie within {core / 2:.3g} m: far "
-                "points that are not the object (a floor or background in the mask?) make it look big"
-            ]
+        if r > hi * EXTENT_REFUSE:  # the half-way radius only where it decides
+            core = 2.0 * float(np.median(np.linalg.norm(pts - np.median(pts, axis=0), axis=1)))
+            if core <= hi * EXTENT_REFUSE:
+                return [
+                    f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
+                    f"{self.category} model was trained on, but half of its points lie within {core / 2:.3g} m: far "
+                    "points that are not the object (a floor or background in the mask?) make it look big"
+                ]
         if lo / EXTENT_REFUSE <= r <= hi * EXTENT_REFUSE:
             if lo / EXTENT_WARN <= r <= hi * EXTENT_WARN:
                 return []
