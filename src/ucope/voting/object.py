@@ -19,6 +19,7 @@ from .kinematic import (
     resolve_shape_flips,
 )
 from .part import VotingOptions, vote_parts
+from .revolution import refine_revolution
 
 __all__ = ["vote_object", "regressed_object", "regression_scores", "part_fit"]
 
@@ -64,7 +65,9 @@ def vote_object(
     Returns:
         the dict of :func:`vote_parts` updated with that of :func:`vote_joints` and ``joint_state``
         ``(J,)``; ``flipped`` ``(K,)`` bool marks the parts turned back by the joint checks and
-        ``shape_turned`` ``(K,)`` those turned by the shape check; ``carried`` ``(K,)`` those re-placed
+        ``shape_turned`` ``(K,)`` those turned by the shape check; ``revolved`` ``(K,)`` the parts whose box
+        and centre came from their points' surface-of-revolution fit (``options.revolution_factor``,
+        objects without joints); ``carried`` ``(K,)`` those re-placed
         from a neighbour (``upright``); ``joint_clamped`` ``(J,)`` the joints
         whose state was brought back into its limits; ``refined`` tells whether the kinematic refinement ran.
     """
@@ -72,14 +75,21 @@ def vote_object(
     out = vote_parts(
         points, normals, pair_idx, outputs, priors, score_filter=score_filter, options=options, axis_heads=axis_heads
     )
-    out["shape_turned"] = np.zeros(priors.num_parts, dtype=bool)
-    if resolve_flips and shape_flips and priors.num_joints == 0:
-        idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx)
-        idx = idx.reshape(priors.num_parts, -1)
+    K = priors.num_parts
+    out["shape_turned"] = np.zeros(K, dtype=bool)
+    out["revolved"] = np.zeros(K, dtype=bool)
+    if priors.num_joints == 0:
+        idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx).reshape(K, -1)
         pts = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64)
-        out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(
-            out["cam_from_part"], out["size_m"], pts, [np.unique(i) for i in idx], priors, shapes
-        )
+        part_points = [np.unique(i) for i in idx]
+        if resolve_flips and shape_flips:
+            out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(
+                out["cam_from_part"], out["size_m"], pts, part_points, priors, shapes
+            )
+        factor = (options or VotingOptions()).revolution_factor
+        for k in np.flatnonzero(priors.symmetric) if factor is not None else ():  # a part or two
+            T, S, out["revolved"][k] = refine_revolution(out["cam_from_part"][k], out["size_m"][k], pts[part_points[k]], factor)
+            out["cam_from_part"][k], out["size_m"][k] = T, S
     return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips, upright=upright)
 
 
