@@ -374,3 +374,49 @@ def test_shipped_articulated_models_know_their_upright_parts():
         pri = Estimator.load(name).priors
         assert pri.parts[0].upright_axis is not None, name
         assert all((jp.pivot_in_parent is not None) == (jp.type.label == "revolute") for jp in pri.joints), name
+
+
+def test_a_noisy_cloud_is_smoothed_above_the_threshold_only(est, sample, tiny_run, tmp_path):
+    """``denoise_above_m``: a cloud whose surface noise is above it is smoothed (with a warning), one below it
+    is not; the model's JSON default is taken by ``load``; bad values are named."""
+    rng = np.random.default_rng(0)
+    clean = sample["points"]
+    noisy = clean + rng.normal(scale=0.01, size=clean.shape)
+    on = Estimator(est.model, num_pairs=2000, denoise_above_m=0.004)
+    assert any("smoothed" in w for w in on.predict(noisy).warnings)
+    assert not any("smoothed" in w for w in on.predict(clean).warnings)
+    assert not any("smoothed" in w for w in Estimator(est.model, num_pairs=2000).predict(noisy).warnings)
+    assert not any("smoothed" in w for w in on.predict(noisy[:500]).warnings)  # too few points to judge
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    meta = json.loads((run / "model.json").read_text())
+    meta.setdefault("info", {})["defaults"] = {"denoise_above_m": 0.002}
+    (run / "model.json").write_text(json.dumps(meta))
+    assert Estimator.load(run).denoise_above_m == 0.002
+    assert Estimator.load(run, denoise_above_m=None).denoise_above_m is None
+    assert Estimator.load(tiny_run).denoise_above_m is None
+    for bad in (-0.001, 2.0, True, "1mm"):
+        with pytest.raises(InputError, match="denoise_above_m"):
+            Estimator(est.model, denoise_above_m=bad)
+    with pytest.raises(InputError, match="denoise_above_m"):
+        Estimator.load(tiny_run, denoise_above_m="auto")
+
+
+def test_cli_smoothing_and_revolution_flags_reach_the_estimator(tiny_run):
+    import argparse
+
+    from ucope.cli.outputs import estimator_options
+
+    base = dict(
+        pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
+        remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
+    )  # fmt: skip
+    o = estimator_options(argparse.Namespace(**base))
+    assert o["denoise_above_m"] == "model" and o["options"] is None
+    o = estimator_options(argparse.Namespace(**base, denoise_above=2.5, no_revolution_fit=True))
+    assert o["denoise_above_m"] == pytest.approx(0.0025) and o["options"].revolution_factor is None
+    o = estimator_options(argparse.Namespace(**base, denoise_above=2.5, no_denoise=True))
+    assert o["denoise_above_m"] is None
+    assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_denoise=True))).denoise_above_m is None

@@ -276,31 +276,9 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def _estimator(args: argparse.Namespace):
     from ..estimation.estimator import Estimator
+    from .outputs import estimator_options
 
-    return Estimator.load(
-        args.model,
-        num_pairs=args.pairs,
-        awareness=not args.no_awareness,
-        refine=args.refine,
-        seed=args.seed,
-        resolve_flips=not args.keep_flips,
-        device=args.device,
-        score_filter=False if args.no_score_filter else None,
-        segment_pairs=False if args.pairs_from_cloud else None,
-        rescale=not args.no_rescale,
-        remove_plane=args.remove_plane,
-        upright=not args.no_upright,
-        options=_voting_options(args),
-    )
-
-
-def _voting_options(args: argparse.Namespace):
-    """The voting options the flags ask for (``None``: the defaults)."""
-    if not getattr(args, "no_vote_caps", False):
-        return None
-    from ..voting import VotingOptions
-
-    return VotingOptions.uncapped()
+    return Estimator.load(args.model, **estimator_options(args))
 
 
 def _expand_inputs(spec: str) -> list[Path]:
@@ -501,6 +479,27 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         default=None,
         help="leave out a floor or table plane under the object that the mask let in (default: the model's own; "
         "on for the shipped models where it measured better, docs/robustness.md)",
+    )
+    p.add_argument(
+        "--denoise-above",
+        type=float,
+        default=None,
+        metavar="MM",
+        help="smooth a cloud whose surface noise is above this many millimetres (default: the model's own; "
+        "docs/robustness.md)",
+    )
+    p.add_argument("--no-denoise", action="store_true", help="never smooth the cloud (whatever the model's default)")
+    p.add_argument(
+        "--no-recrop",
+        action="store_true",
+        help="one pass only: no second estimate on the points the first segmented as the object (default: two passes "
+        "where the first leaves points out or finds the object outside the model's sizes; docs/robustness.md)",
+    )
+    p.add_argument(
+        "--no-revolution-fit",
+        action="store_true",
+        help="keep the voted box of a part symmetric about y even where a surface-of-revolution fit to its points "
+        "disagrees (default: the fit wins beyond 1.2x; docs/results.md)",
     )
     p.add_argument(
         "--no-rescale",

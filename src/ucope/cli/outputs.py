@@ -172,11 +172,43 @@ def read_rgb(path: str, shape: tuple[int, int] | None) -> np.ndarray:
     return img[..., :3]
 
 
+def estimator_options(args: argparse.Namespace) -> dict:
+    """The keyword arguments of :meth:`ucope.estimation.Estimator.load` that the ``predict`` / ``eval``
+    flags ask for (``None`` where a flag was not given: the model's own default)."""
+    from dataclasses import replace
+
+    from ..voting import VotingOptions
+
+    options = VotingOptions.uncapped() if getattr(args, "no_vote_caps", False) else None
+    if getattr(args, "no_revolution_fit", False):
+        options = replace(options or VotingOptions(), revolution_factor=None)
+    denoise = "model"
+    if getattr(args, "no_denoise", False):
+        denoise = None
+    elif getattr(args, "denoise_above", None) is not None:
+        denoise = 1e-3 * args.denoise_above
+    return dict(
+        num_pairs=args.pairs,
+        awareness=not args.no_awareness,
+        refine=args.refine,
+        seed=args.seed,
+        resolve_flips=not args.keep_flips,
+        upright=not args.no_upright,
+        rescale=not args.no_rescale,
+        remove_plane=args.remove_plane,
+        denoise_above_m=denoise,
+        recrop=not getattr(args, "no_recrop", False),
+        device=args.device,
+        score_filter=False if args.no_score_filter else None,
+        segment_pairs=False if args.pairs_from_cloud else None,
+        options=options,
+    )
+
+
 def predict_instances(args: argparse.Namespace) -> int:
     """``ucope predict --instances ID=MODEL ... --depth D --mask M --intrinsics K``: one JSON for all."""
     from ..data.io import read_depth_png, read_intrinsics
     from ..estimation.frame import parse_instance_models, predict_frame
-    from ..voting import VotingOptions
 
     if args.depth is None or args.mask is None or args.intrinsics is None:
         raise UcopeError("--instances needs --depth D.png, --mask INSTANCES.png and --intrinsics K.json")
@@ -186,20 +218,7 @@ def predict_instances(args: argparse.Namespace) -> int:
     depth = read_depth_png(args.depth)
     mask = read_depth_png(args.mask)
     K = read_intrinsics(args.intrinsics)
-    opts = dict(
-        num_pairs=args.pairs,
-        awareness=not args.no_awareness,
-        refine=args.refine,
-        seed=args.seed,
-        resolve_flips=not args.keep_flips,
-        upright=not args.no_upright,
-        rescale=not args.no_rescale,
-        remove_plane=args.remove_plane,
-        device=args.device,
-        score_filter=False if args.no_score_filter else None,
-        segment_pairs=False if args.pairs_from_cloud else None,
-        options=VotingOptions.uncapped() if args.no_vote_caps else None,
-    )
+    opts = estimator_options(args)
     fr = predict_frame(
         depth,
         K,

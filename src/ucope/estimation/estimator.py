@@ -18,6 +18,10 @@ Pipeline of :meth:`Estimator.predict` (timed stage by stage in ``result.timings_
 4. **voting**: per part, centre, axes (with their heads, above) and size by voting (:mod:`ucope.voting`); per joint, pivot and
    axis from the joint heads; joint states from the part poses; optionally the kinematic refinement.
 
+Stages 2-4 run twice where the first run segments part of the cloud as not the object or finds it outside
+the model's sizes: the second run sees the object's points only (``Estimator(recrop=True)``, the
+default; the timings are the sums).
+
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
 """
 
@@ -25,12 +29,14 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from ..errors import InputError
+from ..geometry.denoise import smooth_points, surface_noise
 from ..geometry.normals import estimate_normals
 from ..geometry.sampling import random_subset
 from ..model.checkpoint import find_model, load_model
@@ -40,10 +46,28 @@ from ..priors import cloud_radius
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
 from .confidence import Calibration, part_features
-from .inputs import MIN_POINTS, NORMAL_K, find_support_plane, label_points, prepare_points, rgbd_points, roll_to_up
+from .inputs import (
+    MIN_POINTS,
+    NORMAL_K,
+    SupportPlane,
+    find_support_plane,
+    label_points,
+    prepare_points,
+    rgbd_points,
+    roll_to_up,
+)
 from .result import JointEstimate, PartEstimate, PoseResult
 
-__all__ = ["Estimator", "MAX_PAIRS", "EXTENT_REFUSE", "EXTENT_WARN"]
+__all__ = [
+    "Estimator",
+    "MAX_PAIRS",
+    "EXTENT_REFUSE",
+    "EXTENT_WARN",
+    "DENOISE_K",
+    "DENOISE_MIN_POINTS",
+    "RECROP_MIN_FRACTION",
+    "RESCALE_CORE_FACTOR",
+]
 
 MAX_PAIRS = 1_000_000
 """The most point pairs per object (the pair encoder holds ``num_pairs x hidden`` floats)."""
@@ -54,6 +78,41 @@ training range gets a warning."""
 
 EXTENT_REFUSE = 20.0
 """... and more than this factor outside it is refused (another unit, or not this kind of object)."""
+
+DENOISE_K = 48
+"""Neighbours of the local planes the estimator's smoothing projects onto (two steps,
+:func:`ucope.geometry.denoise.smooth_points`)."""
+
+DENOISE_MIN_POINTS = 1000
+"""Clouds with fewer points are never smoothed: their neighbourhoods are too wide, and their surface
+noise (:func:`ucope.geometry.denoise.surface_noise`) measures curvature more than noise."""
+
+
+RESCALE_CORE_FACTOR = 1.4
+"""The rescaling measures a cloud by its 90th-percentile radius, but at most this factor times twice its
+median radius (its core): on clean views of the shipped categories the 90th-percentile radius is at most
+1.4-1.7x the core, while a floor seen far behind the object or other stray points raise it alone (to
+2-15x), and the rescaling would then shrink the object."""
+
+RECROP_MIN_FRACTION = 0.03
+"""With ``Estimator(recrop=True)``, a first pass that segments at least this share of the cloud (and at
+least :data:`ucope.estimation.inputs.MIN_POINTS` points) as not the object (the background class or a
+support plane) is followed by a second pass on the rest. (A few stray labels in a sparse cloud are not
+worth it: the second pass would only see fewer points.)"""
+
+
+@dataclass
+class _Pass:
+    """One estimate of :meth:`Estimator.predict` on a prepared cloud of ``P`` points."""
+
+    parts: list[PartEstimate]
+    joints: list[JointEstimate]
+    labels: np.ndarray  # (P,) part index per point, -1: support plane or background class
+    plane: SupportPlane | None
+    features: np.ndarray
+    warnings: list[str]  # about this estimate
+    input_warnings: list[str]  # about the cloud (a plane left out, mostly background): kept from a first pass
+    timings: dict[str, float]
 
 
 def _device(device) -> torch.device:
@@ -113,6 +172,15 @@ class Estimator:
             (:func:`ucope.voting.kinematic.carry_upright`); its score is halved and a warning says so.
             It assumes an upright camera looking from the training elevations: pass ``False`` for a
             rolled camera or one below the object. On by default; measured in docs/results.md.
+        denoise_above_m: smooth a cloud whose surface noise (:func:`ucope.geometry.denoise.surface_noise`,
+            metres) is above this (:func:`ucope.geometry.denoise.smooth_points`, with a warning); clouds
+            under :data:`DENOISE_MIN_POINTS` points never are. ``None`` (here): never; :meth:`load`
+            takes the model's default (set where it measured better: docs/robustness.md).
+        recrop: estimate in two passes where needed (:meth:`predict`): a first one, never rescaled,
+            segments the cloud; when it leaves at least :data:`RECROP_MIN_FRACTION` of the points out as
+            not the object (the background class of models trained with one, a support plane) or the
+            object's points need the rescaling, a second one estimates on the object's points alone. On
+            by default; measured in docs/robustness.md.
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -137,6 +205,8 @@ class Estimator:
         rescale: bool = True,
         remove_plane: bool = False,
         upright: bool = True,
+        denoise_above_m: float | None = None,
+        recrop: bool = True,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -146,6 +216,9 @@ class Estimator:
             raise InputError(f"seed must be an integer >= 0, got {seed!r}")
         if not (isinstance(max_input_points, int | np.integer) and max_input_points >= MIN_POINTS):
             raise InputError(f"max_input_points must be an integer >= {MIN_POINTS}, got {max_input_points!r}")
+        metres = isinstance(denoise_above_m, float | int) and not isinstance(denoise_above_m, bool)
+        if denoise_above_m is not None and not (metres and 0.0 <= denoise_above_m < 1.0):
+            raise InputError(f"denoise_above_m must be a surface noise in metres in [0, 1) or None, got {denoise_above_m!r}")
         device = _device(device)
         self.model = model.to(device).eval()
         self.cfg = model.cfg
@@ -168,15 +241,25 @@ class Estimator:
         self.rescale = bool(rescale)
         self.remove_plane = bool(remove_plane)
         self.upright = bool(upright)
+        self.denoise_above_m = None if denoise_above_m is None else float(denoise_above_m)
+        self.recrop = bool(recrop)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
-    def load(cls, model: str | os.PathLike, refine: bool | None = None, remove_plane: bool | None = None, **kwargs) -> Estimator:
+    def load(
+        cls,
+        model: str | os.PathLike,
+        refine: bool | None = None,
+        remove_plane: bool | None = None,
+        denoise_above_m: float | None | str = "model",
+        **kwargs,
+    ) -> Estimator:
         """An estimator from a run folder / model JSON path, or the name of a shipped model
         (``Estimator.load("laptop")``; :func:`ucope.model.checkpoint.list_pretrained` lists them).
 
-        ``refine=None`` / ``remove_plane=None`` take the model's own defaults (``info.defaults`` of its
-        JSON, set when it was packaged where they measured better). Other keyword arguments: as the constructor."""
+        ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` take the model's own defaults
+        (``info.defaults`` of its JSON, set when it was packaged where they measured better). Other keyword
+        arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
@@ -187,9 +270,14 @@ class Estimator:
             refine = bool(defaults.get("refine", False))
         if remove_plane is None:
             remove_plane = bool(defaults.get("remove_plane", False))
+        if isinstance(denoise_above_m, str):
+            if denoise_above_m != "model":
+                raise InputError(f'denoise_above_m must be metres, None or "model", got {denoise_above_m!r}')
+            denoise_above_m = defaults.get("denoise_above_m")
         if "calibration" not in kwargs and info.get("calibration"):
             kwargs["calibration"] = Calibration.from_dict(info["calibration"])
-        return cls(net, name=str(Path(model)), refine=refine, remove_plane=remove_plane, **kwargs)
+        kwargs.update(refine=refine, remove_plane=remove_plane, denoise_above_m=denoise_above_m)
+        return cls(net, name=str(Path(model)), **kwargs)
 
     @property
     def category(self) -> str:
@@ -198,6 +286,14 @@ class Estimator:
     # ---------------------------------------------------------------------------------- prediction
     def predict(self, points, normals=None, units: str = "m", up=None) -> PoseResult:
         """Estimate the pose of the object whose (segmented) cloud ``points`` is.
+
+        With ``recrop`` (on by default) it takes two passes where it needs them. A first pass segments the
+        cloud (without rescaling it); when it leaves at least :data:`RECROP_MIN_FRACTION` of the points out
+        as not the object (the background class, a support plane), or when the object's points lie
+        outside the model's training sizes, a second pass estimates on the object's points alone (and
+        rescales them if ``rescale``), and its result is returned: a floor or a bleeding mask then no
+        longer widens the cloud, shifts its features or triggers the rescaling (a warning says what was
+        left out).
 
         Args:
             points: ``(N, 3)`` or organised ``(H, W, 3)`` (NaN = no measurement): the object's points in
@@ -212,7 +308,8 @@ class Estimator:
 
         Returns:
             a :class:`PoseResult`: ``part_labels`` has one entry per input point (an organised cloud
-            flattened row by row), -1 for dropped ones; ``warnings`` lists what looked wrong.
+            flattened row by row), -1 for dropped ones and for those segmented as not the object;
+            ``warnings`` lists what looked wrong.
 
         Raises:
             InputError: a cloud that cannot be one object in the camera frame (see
@@ -230,16 +327,90 @@ class Estimator:
                 f"the cloud was turned {turned_deg:.0f} degrees about the optical axis "
                 "to put the given up direction at image up for the estimate; the result is turned back"
             )
+        t_prep = time.perf_counter() - t0
+        # With recrop, the first pass never rescales: a floor or stray points widen the cloud and would
+        # trigger the rescaling (the network was trained on such clouds at their own scale); the second
+        # pass decides it on the points the first segmented as the object.
+        first = self._pass(pts, nrm, units, roll, len(raw), rescale=self.rescale and not self.recrop)
+        final, labels, planes, timings = first, first.labels, [first.plane], dict(first.timings)
+        obj = first.labels >= 0
+        left_out = float(np.mean(~obj))
+        if self.recrop and np.count_nonzero(obj) >= MIN_POINTS:
+            again = left_out >= RECROP_MIN_FRACTION and np.count_nonzero(~obj) >= MIN_POINTS
+            if not again:
+                obj[:] = True  # a few stray labels: the second pass (if any) sees the whole cloud
+            if again or (self.rescale and self.input_scale(pts[obj])[0] != 1.0):
+                try:
+                    n_obj = round(len(raw) * float(np.mean(obj)))  # the input's object points, as the calibration counts them
+                    second = self._pass(pts[obj], None if nrm is None else nrm[obj], units, roll, n_obj, rescale=self.rescale)
+                except InputError as e:  # the object's points alone look like no object of the category
+                    warnings.append(
+                        f"the second pass on the {np.count_nonzero(obj)} object points failed ({e}); the first stands"
+                    )
+                else:
+                    if again:
+                        warnings += first.input_warnings
+                        what = "a support plane and the background" if first.plane is not None else "the background"
+                        warnings.append(
+                            f"{100 * left_out:.0f} % of the points were segmented as not the object ({what}) "
+                            "and left out; the pose was estimated again on the rest"
+                        )
+                    final, planes = second, planes + [second.plane]
+                    labels = np.full(len(pts), -1, dtype=np.int64)
+                    labels[obj] = second.labels
+                    timings = {key: timings[key] + second.timings[key] for key in timings}
+        warnings += final.input_warnings + final.warnings
+        t4 = time.perf_counter()
+        usable = finite.copy()
+        for plane in planes:
+            if plane is not None:
+                usable &= ~plane.removes(np.nan_to_num(raw))
+        all_labels = label_points(raw, usable, pts, labels)
+        timings["preprocess"] += 1e3 * (t_prep + time.perf_counter() - t4)
+        timings["total"] = 1e3 * (time.perf_counter() - t0)
+        return PoseResult(
+            category=self.cfg.category,
+            parts=final.parts,
+            joints=final.joints,
+            part_labels=all_labels,
+            timings_ms=timings,
+            model=self.name,
+            num_points=len(raw),
+            warnings=warnings,
+            features=final.features,
+        )
+
+    def _pass(
+        self, pts: np.ndarray, nrm: np.ndarray | None, units: str, roll: np.ndarray | None, num_input: int, rescale: bool
+    ) -> _Pass:
+        """One estimate on a prepared cloud ``pts`` ``(P, 3)`` float32 (camera frame, metres, turned by
+        ``roll`` when given; canonical order) with optional normals ``(P, 3)``, standing for ``num_input``
+        points of the user's cloud (a calibration feature): smoothing, support plane,
+        extent checks, rescaling, network, voting, scores, back to the input's frame. Its ``labels``
+        ``(P,)`` give every point of ``pts`` its part, -1 for the support plane and the background class."""
+        t0 = time.perf_counter()
+        pts_in = pts
+        warnings, input_warnings = [], []
+        if self.denoise_above_m is not None and len(pts) >= DENOISE_MIN_POINTS:
+            noise = surface_noise(pts)
+            if noise > self.denoise_above_m:
+                pts = smooth_points(pts, k=DENOISE_K, iterations=2).astype(np.float32)
+                warnings.append(
+                    f"the cloud's surface noise ({1e3 * noise:.1f} mm) is above the {1e3 * self.denoise_above_m:.1f} mm "
+                    f"the model handles; it was smoothed before the estimate"
+                )
         plane = find_support_plane(pts, seed=self.seed) if self.remove_plane else None
+        on_object = np.ones(len(pts), dtype=bool)
         if plane is not None and np.count_nonzero(keep := ~plane.removes(pts)) >= MIN_POINTS:
+            on_object = keep
             pts, nrm = pts[keep], (None if nrm is None else nrm[keep])
-            warnings.append(
+            input_warnings.append(
                 f"a plane under the object ({100 * plane.fraction:.0f} % of the points) was left out as floor or table"
             )
         else:
             plane = None
         warnings += self._extent_warnings(pts, units)
-        scale, centre = self.input_scale(pts)
+        scale, centre = self.input_scale(pts) if rescale else (1.0, np.zeros(3))
         if scale != 1.0:
             pts = (centre + scale * (pts - centre)).astype(np.float32)
             warnings.append(
@@ -309,7 +480,7 @@ class Estimator:
         K = cfg.num_parts
         seg_prob = enc["seg_logits"][0].softmax(-1).cpu().numpy() if "seg_logits" in enc else None
         feats = part_features(
-            v, labels, seg_prob, p_net, len(raw), [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
+            v, labels, seg_prob, p_net, num_input, [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
         )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
         carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
@@ -317,7 +488,7 @@ class Estimator:
         if scale != 1.0:
             v = self._scale_back(v, scale, centre)
             p_net = (centre + (p_net - centre) / scale).astype(np.float32)
-        if roll is not None:  # the labels below are carried over in the turned frame: p_net and raw stay in it
+        if roll is not None:  # the labels below are carried over in the turned frame: p_net and pts stay in it
             v = self._turn_back(v, roll)
         parts, joints = self._estimates(v, scores)
         for k in np.flatnonzero(carried):
@@ -340,15 +511,14 @@ class Estimator:
         t4 = time.perf_counter()
         background = labels >= K  # the background class (models with one): not the object
         if background.mean() > 0.5:
-            warnings.append(
+            input_warnings.append(
                 f"{100 * background.mean():.0f} % of the points were segmented as not the object: "
                 "is the cloud one segmented object?"
             )
         for k, pe in enumerate(parts):
             if np.count_nonzero(labels == k) < 3:
                 warnings.append(f"part {pe.label!r}: fewer than 3 points were segmented as it; its pose is a guess")
-        usable = finite if plane is None else finite & ~plane.removes(np.nan_to_num(raw))
-        all_labels = label_points(raw, usable, p_net, np.where(background, -1, labels))
+        point_labels = label_points(pts_in, on_object, p_net, np.where(background, -1, labels))
         t5 = time.perf_counter()
         timings = {
             "preprocess": 1e3 * (t1 - t0 + t5 - t4),
@@ -357,22 +527,13 @@ class Estimator:
             "voting": 1e3 * (t4 - t3),
             "total": 1e3 * (t5 - t0),
         }
-        return PoseResult(
-            category=cfg.category,
-            parts=parts,
-            joints=joints,
-            part_labels=all_labels,
-            timings_ms=timings,
-            model=self.name,
-            num_points=len(raw),
-            warnings=warnings,
-            features=feats,
-        )
+        return _Pass(parts, joints, point_labels, plane, feats, warnings, input_warnings, timings)
 
     def input_scale(self, points: np.ndarray) -> tuple[float, np.ndarray]:
         """``(s, c)``: the factor :meth:`predict` scales ``points`` ``(N, 3)`` by about their median point
         ``c`` ``(3,)`` (camera frame, metres): 1 unless ``rescale`` is on and the cloud's radius ``r``
-        (:func:`ucope.priors.cloud_radius`) lies below the radii the model saw often (``lo``: the 2nd
+        (:func:`ucope.priors.cloud_radius`, at most :data:`RESCALE_CORE_FACTOR` x twice its median radius,
+        so that far stray points do not make it look big) lies below the radii the model saw often (``lo``: the 2nd
         percentile, ``priors.radius_typical_m``) or above the largest it saw (``priors.radius_range_m``);
         then ``sqrt(lo hi) / r`` with ``[lo, hi]`` the typical radii: the middle of the sizes the model
         knows, where sizes come out right. The upper trigger is the largest radius, not the 98th
@@ -385,7 +546,7 @@ class Estimator:
         if not self.rescale or full is None:
             return 1.0, centre
         typ = self.priors.radius_typical_m or full
-        r = cloud_radius(pts)
+        r = min(cloud_radius(pts), RESCALE_CORE_FACTOR * 2.0 * float(np.median(np.linalg.norm(pts - centre, axis=1))))
         lo, hi = float(typ[0]), float(typ[1])
         if r <= 0.0 or lo <= r <= float(full[1]):
             return 1.0, centre
