@@ -58,3 +58,32 @@ def test_an_estimator_with_a_calibration_reports_probabilities_and_warns_below_i
     assert not any("low confidence" in w for w in ok.warnings)
     with pytest.raises(InputError, match="parts"):
         Estimator(raw.model, calibration=dataclasses.replace(always, part_bias=(0.0,)))
+
+
+def test_part_features_carry_the_axis_agreements_and_zero_them_without_votes(rng):
+    from ucope.estimation.confidence import part_features
+
+    T = np.repeat(np.eye(4)[None], 2, axis=0)
+    T[1, :3, 3] = [0.3, 0.0, 0.0]
+    pts = np.concatenate([rng.uniform(-0.05, 0.05, (50, 3)), rng.uniform(-0.05, 0.05, (50, 3)) + [0.3, 0, 0]])
+    labels = np.repeat([0, 1], 50)
+    votes = dict(
+        cam_from_part=T,
+        size_m=np.full((2, 3), 0.1),
+        score=np.array([0.9, 0.8]),
+        num_pairs=np.array([100, 100]),
+        num_inliers=np.array([90, 80]),
+        mean_prob=np.array([0.9, 0.9]),
+        fallback=np.array([False, False]),
+        joint_score=np.array([0.7]),
+        up_agreement=np.array([0.95, 0.4]),
+        right_agreement=np.array([0.9, 0.2]),
+    )
+    F = part_features(votes, labels, None, pts, 100, [0], [1])
+    i, j = FEATURES.index("up_agreement"), FEATURES.index("right_agreement")
+    np.testing.assert_allclose(F[:, i], [0.95, 0.4])
+    np.testing.assert_allclose(F[:, j], [0.9, 0.2])
+    np.testing.assert_allclose(F[:, FEATURES.index("joint_score")], [0.7, 0.7])
+    regressed = {k: v for k, v in votes.items() if k not in ("up_agreement", "right_agreement", "num_inliers")}
+    F = part_features(regressed, labels, None, pts, 100, [0], [1])
+    assert np.all(F[:, [i, j]] == 0.0)

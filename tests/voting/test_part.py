@@ -303,3 +303,35 @@ def test_uncapped_options_let_every_pair_vote_and_still_recover_the_pose(rng):
         r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, options=opt)
         _check_pose(r, T, size, V, False)
         assert r.num_pairs == 6000
+
+
+def test_cone_agreement_matches_a_per_pair_reference(rng):
+    from ucope.voting.part import _cone_agreement
+
+    A = 500
+    e = rng.normal(size=(3, A))
+    e /= np.linalg.norm(e, axis=0)
+    axis = rng.normal(size=3)
+    angle = rng.uniform(0.0, math.pi, A)
+    ref = 0
+    for i in range(A):  # plain reference: the angle between the pair direction and the axis, one by one
+        cos = float(np.dot(e[:, i], axis) / np.linalg.norm(axis))
+        ref += abs(math.degrees(math.acos(max(-1.0, min(1.0, cos))) - angle[i])) < 20.0
+    got = _cone_agreement(torch.from_numpy(axis), torch.from_numpy(e), torch.from_numpy(angle), 20.0)
+    assert got == pytest.approx(ref / A)
+    assert _cone_agreement(torch.from_numpy(axis), torch.zeros(3, 0, dtype=torch.float64), torch.zeros(0), 5.0) == 0.0
+
+
+@pytest.mark.parametrize("sym", [False, True])
+def test_axis_agreement_falls_when_the_axis_votes_disagree(rng, sym):
+    T, size = random_part(rng, sym)
+    agree = []
+    for axis_noise in (0.0, 0.6):  # radians of noise on every pair's alpha and beta
+        a, b, n, h, V = synthetic_heads(rng, T, size, size, 4000, noise=(0.0, axis_noise))
+        r = vote_part(a, b, n, *(h[k] for k in HEADS), vote_range_m=V, mean_size_m=size, symmetric=sym)
+        agree.append((r.up_agreement, r.right_agreement))
+    assert agree[0][0] > 0.9 and agree[1][0] < 0.7 * agree[0][0]
+    if sym:
+        assert agree[0][1] == agree[1][1] == 1.0
+    else:
+        assert agree[0][1] > 0.9 and agree[1][1] < 0.7 * agree[0][1]

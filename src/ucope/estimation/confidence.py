@@ -6,7 +6,8 @@ when its rotation error is below 10 degrees and its translation error below 10 %
 (rotation about y ignored for parts symmetric about y); an object succeeds when every part does.
 
 For each part the estimator measures :data:`FEATURES` (:func:`part_features`): what the votes say
-(vote score, inlier fraction, mean part-score probability, fallback), what the segmentation says (the
+(vote score, inlier fraction, mean part-score probability, fallback, how many axis-voting pairs'
+cones the voted y and x axes meet), what the segmentation says (the
 part's share of the object's points, their mean class probability, the share of points segmented as
 background), whether the part's points fit its voted box, how many points there were, and how sure the
 joint heads are. A logistic model per category (:class:`Calibration`, fitted by
@@ -48,6 +49,8 @@ FEATURES = (
     "box_fit",
     "log_points",
     "joint_score",
+    "up_agreement",
+    "right_agreement",
 )
 """Per-part inputs of the calibration, in order (:func:`part_features`)."""
 
@@ -95,6 +98,8 @@ def part_features(
         out[k, 4] = np.count_nonzero(labels == k) / n_obj
         near = [j for j in range(len(js)) if joint_parents[j] == k or joint_children[j] == k]
         out[k, 9] = min((js[j] for j in near), default=1.0)
+    out[:, 10] = votes.get("up_agreement", np.zeros(K))
+    out[:, 11] = votes.get("right_agreement", np.zeros(K))
     return out
 
 

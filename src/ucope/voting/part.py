@@ -85,7 +85,7 @@ class VotingOptions:
         revolution_factor: a part symmetric about y of an object without joints (bottle, bowl, can) gets
             its box and centre from a surface-of-revolution fit to its points
             (:func:`ucope.voting.revolution.refine_revolution`) where the fit's size differs from the voted
-            one by more than this factor on some axis (default 1.2, measured in docs/results.md); ``None``:
+            one by more than this factor on some axis (default 1.2, measured in docs/robustness.md); ``None``:
             off.
     """
 
@@ -149,6 +149,11 @@ class PartVote:
         num_pairs: pairs that voted; num_inliers: centre inliers among them.
         fallback: too few pairs passed the part score and every pair voted.
         mean_prob: the mean part-score probability of the voting pairs.
+        up_agreement, right_agreement: the fractions of the axis-voting pairs whose cone (the angle
+            ``alpha`` to y, ``beta`` to x between their direction and the axis) the voted rotation's y / x
+            axis meets within ``VotingOptions.axis.tol_deg``; ``right_agreement`` is 1 for a part
+            symmetric about y. A calibration feature: a low one says the pairs disagree on the axis
+            (a mug whose handle direction is guessed).
         timings_ms: CPU wall time per stage (``decode``, ``centre``, ``axes``, ``rotation``, ``size``).
     """
 
@@ -159,6 +164,8 @@ class PartVote:
     num_inliers: int
     fallback: bool = False
     mean_prob: float = 0.0
+    up_agreement: float = 0.0
+    right_agreement: float = 0.0
     timings_ms: dict[str, float] = field(default_factory=dict)
 
 
@@ -332,6 +339,8 @@ def _vote_part(
     if opt.refine_rotation:
         terms = [(1, e_ax, alpha, ones)] + ([] if symmetric else [(0, e_ax, beta, ones)])
         R = rotation_from_cones(R, terms, int(opt.rotation_iters), float(ao.tol_deg), float(ao.min_tol_deg))
+    up_agree = _cone_agreement(R[:, 1], e_ax, alpha, float(ao.tol_deg))
+    right_agree = 1.0 if symmetric else _cone_agreement(R[:, 0], e_ax, beta, float(ao.tol_deg))
     t4 = time.perf_counter()
     # 6. Size and score.
     g = gam[sel[pool]].mean(0)
@@ -353,8 +362,20 @@ def _vote_part(
         num_inliers=n_inl,
         fallback=fallback,
         mean_prob=mean_prob,
+        up_agreement=up_agree,
+        right_agreement=right_agree,
         timings_ms=dict(decode=ms(t0, t1), centre=ms(t1, t2), axes=ms(t2, t3), rotation=ms(t3, t4), size=ms(t4, t5)),
     )
+
+
+def _cone_agreement(axis: torch.Tensor, e: torch.Tensor, angle: torch.Tensor, tol_deg: float) -> float:
+    """The fraction of pairs whose cone about their unit direction ``e`` ``(3, A)`` with half-angle
+    ``angle`` ``(A,)`` (radians) passes within ``tol_deg`` of the unit ``axis`` ``(3,)``."""
+    if e.shape[1] == 0:
+        return 0.0
+    a = axis.to(e.dtype) / axis.norm()
+    off = torch.acos((a @ e).clamp(-1.0, 1.0)) - angle
+    return float((off.abs() < math.radians(tol_deg)).float().mean())
 
 
 def snap_to_visible_face(
@@ -410,8 +431,9 @@ def vote_parts(
 
     Returns:
         dict of numpy arrays: ``cam_from_part`` ``(K, 4, 4)``, ``size_m`` ``(K, 3)``, ``score``
-        ``(K,)``, ``num_pairs`` / ``num_inliers`` ``(K,)`` int, ``fallback`` ``(K,)`` bool, ``mean_prob``
-        ``(K,)``, and ``timings_ms`` (a list of per-part stage timings).
+        ``(K,)``, ``num_pairs`` / ``num_inliers`` ``(K,)`` int, ``fallback`` ``(K,)`` bool, ``mean_prob``,
+        ``up_agreement`` and ``right_agreement`` ``(K,)`` (:class:`PartVote`), and ``timings_ms`` (a list
+        of per-part stage timings).
     """
     K = priors.num_parts
     pts = as_points(points, "points")
@@ -449,6 +471,8 @@ def vote_parts(
         num_inliers=np.zeros(K, dtype=np.int64),
         fallback=np.zeros(K, dtype=bool),
         mean_prob=np.zeros(K),
+        up_agreement=np.zeros(K),
+        right_agreement=np.zeros(K),
         timings_ms=[],
     )
     opt = options or VotingOptions()
@@ -486,6 +510,8 @@ def vote_parts(
         out["size_m"][k] = r.size_m
         out["score"][k] = r.score
         out["mean_prob"][k] = r.mean_prob
+        out["up_agreement"][k] = r.up_agreement
+        out["right_agreement"][k] = r.right_agreement
         out["num_pairs"][k] = r.num_pairs
         out["num_inliers"][k] = r.num_inliers
         out["fallback"][k] = r.fallback
