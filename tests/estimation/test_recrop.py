@@ -75,3 +75,25 @@ def test_the_second_pass_decides_the_rescaling_on_the_object_points():
     for a, b in zip(two.parts, one.parts, strict=True):
         np.testing.assert_array_equal(a.cam_from_part, b.cam_from_part)
         np.testing.assert_array_equal(a.size_m, b.size_m)
+
+
+def test_compact_tells_a_lone_object_from_one_with_a_far_floor(mug):
+    from ucope.estimation.estimator import compact
+
+    s, _ = mug
+    assert compact(s["points"])
+    assert compact(scale_sample(s, 2.0)["points"])  # a size does not change it
+    far = _floor_under(s, np.random.default_rng(0), n=800, reach=(0.3, 1.5))  # ~25 % of the points
+    assert not compact(np.concatenate([s["points"], far]))
+
+
+def test_a_compact_cloud_far_above_the_training_sizes_is_rescaled_in_the_first_pass(mug):
+    s, est = mug
+    big = scale_sample(s, 3.0)
+    assert est.input_scale(big["points"])[0] < 1.0  # the precondition: too large for the model
+    one = Estimator.load("mug", num_pairs=4000, remove_plane=False, recrop=False).predict(big["points"])
+    two = est.predict(big["points"])
+    assert any("was scaled by" in w for w in one.warnings) and any("was scaled by" in w for w in two.warnings)
+    assert rotation_error_deg(two.parts[0].cam_from_part[:3, :3], big["cam_from_part"][0][:3, :3]) < 15.0
+    ratio = np.cbrt(np.prod(two.parts[0].size_m) / np.prod(big["size_m"][0]))
+    assert 0.8 < ratio < 1.25
