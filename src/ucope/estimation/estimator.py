@@ -378,6 +378,7 @@ class Estimator:
                     labels[obj] = second.labels
                     timings = {key: timings[key] + second.timings[key] for key in timings}
         warnings += final.input_warnings + final.warnings
+        warnings = list(dict.fromkeys(warnings))  # a warning both passes gave, once
         t4 = time.perf_counter()
         usable = finite.copy()
         for plane in planes:
@@ -427,7 +428,7 @@ class Estimator:
             )
         else:
             plane = None
-        warnings += self._extent_warnings(pts, units)
+        input_warnings += self._extent_warnings(pts, units)  # about the cloud: kept from a first pass
         scale, centre = self.input_scale(pts) if rescale else (1.0, np.zeros(3))
         if scale != 1.0:
             pts = (centre + scale * (pts - centre)).astype(np.float32)
