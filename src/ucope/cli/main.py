@@ -499,7 +499,7 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "--no-revolution-fit",
         action="store_true",
         help="keep the voted box of a part symmetric about y even where a surface-of-revolution fit to its points "
-        "disagrees (default: the fit wins beyond 1.2x; docs/results.md)",
+        "disagrees (default: the fit wins beyond 1.2x; docs/robustness.md)",
     )
     p.add_argument(
         "--no-rescale",

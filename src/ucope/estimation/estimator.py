@@ -107,12 +107,19 @@ its median radius: above the 1.4-1.7 of every clean view of the shipped categori
 views with a floor seen far behind the object."""
 
 
+def _radii(pts: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """``(centre (3,), outer, core)`` of a cloud ``(N, 3)``: its median point, its 90th-percentile radius
+    about it (:func:`ucope.priors.cloud_radius`) and twice its median radius (metres)."""
+    centre = np.median(pts, axis=0)
+    return centre, cloud_radius(pts), 2.0 * float(np.median(np.linalg.norm(pts - centre, axis=1)))
+
+
 def compact(pts: np.ndarray) -> bool:
     """Whether the cloud ``pts`` ``(N, 3)`` looks like one object alone: its 90th-percentile radius about
     its median point (:func:`ucope.priors.cloud_radius`) at most :data:`COMPACT_FACTOR` x twice its
     median radius. A floor or stray points far from the object fail it."""
-    centre = np.median(pts, axis=0)
-    return cloud_radius(pts) <= COMPACT_FACTOR * 2.0 * float(np.median(np.linalg.norm(pts - centre, axis=1)))
+    _, outer, core = _radii(pts)
+    return outer <= COMPACT_FACTOR * core
 
 
 @dataclass
@@ -560,12 +567,12 @@ class Estimator:
         percentile cost the eyeglasses 14-20 points of success under them). A model without typical radii
         uses ``radius_range_m`` for both. docs/results.md has the measured effect."""
         pts = np.asarray(points, np.float64)
-        centre = np.median(pts, axis=0)
         full = self.priors.radius_range_m
         if not self.rescale or full is None:
-            return 1.0, centre
+            return 1.0, np.median(pts, axis=0)
         typ = self.priors.radius_typical_m or full
-        r = min(cloud_radius(pts), RESCALE_CORE_FACTOR * 2.0 * float(np.median(np.linalg.norm(pts - centre, axis=1))))
+        centre, outer, core = _radii(pts)
+        r = min(outer, RESCALE_CORE_FACTOR * core)
         lo, hi = float(typ[0]), float(typ[1])
         if r <= 0.0 or lo <= r <= float(full[1]):
             return 1.0, centre
