@@ -29,6 +29,7 @@ floor(epoch / lr_step_epochs)`` (the paper: 1e-3, x0.1 every 10 epochs; it names
 from __future__ import annotations
 
 import dataclasses
+import gc
 import hashlib
 import json
 import math
@@ -215,7 +216,10 @@ class _Dist:
         return [str(x) for x in out]
 
     def close(self) -> None:
+        """Destroy the process group. The DDP wrapper's reducer holds the group: it is collected first, so
+        the group's worker threads are joined here and not at interpreter exit (where gloo can abort)."""
         if self.enabled and dist.is_initialized():
+            gc.collect()
             dist.destroy_process_group()
 
 
@@ -761,5 +765,8 @@ class _Run:
 
 def _train(tc: TrainConfig, dd: _Dist, use_cuda: bool, on_step) -> dict:
     run = _Run(tc, dd, use_cuda, on_step)
-    run.loop()
-    return run.finish()
+    try:
+        run.loop()
+        return run.finish()
+    finally:
+        run.net = run.model = run.optimizer = None  # type: ignore[assignment]  # let the DDP reducer go
