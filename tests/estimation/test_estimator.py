@@ -420,3 +420,6 @@ def test_cli_smoothing_and_revolution_flags_reach_the_estimator(tiny_run):
     o = estimator_options(argparse.Namespace(**base, denoise_above=2.5, no_denoise=True))
     assert o["denoise_above_m"] is None
     assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_denoise=True))).denoise_above_m is None
+    assert o["scale_search"] and o["recrop"]
+    o = estimator_options(argparse.Namespace(**base, no_scale_search=True, no_recrop=True))
+    assert not o["scale_search"] and not o["recrop"] and not Estimator.load(tiny_run, **o).scale_search

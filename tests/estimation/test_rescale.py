@@ -14,9 +14,10 @@ from ucope.priors import cloud_radius
 
 @pytest.fixture(scope="module")
 def drawer():
-    """A drawer test view (prismatic joints: their states must follow the scale) and the shipped model."""
+    """A drawer test view (prismatic joints: their states must follow the scale) and the shipped model
+    (one estimate per cloud: the scale search is tested in test_scale_search.py)."""
     s = make_sample(GenerateConfig(category="drawer", split="test", num=1, views_per_instance=1, seed=3), 0)
-    return s, Estimator.load("drawer", num_pairs=2000, refine=False)
+    return s, Estimator.load("drawer", num_pairs=2000, refine=False, scale_search=False)
 
 
 def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):

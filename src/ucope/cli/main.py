@@ -502,6 +502,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "disagrees (default: the fit wins beyond 1.2x; docs/robustness.md)",
     )
     p.add_argument(
+        "--no-scale-search",
+        action="store_true",
+        help="estimate once, at the scale the rescaling gives the cloud (default: also on the cloud normalised to the "
+        "model's typical size, keeping the higher-scored estimate; docs/results.md)",
+    )
+    p.add_argument(
         "--no-rescale",
         action="store_true",
         help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",

@@ -198,6 +198,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         remove_plane=args.remove_plane,
         denoise_above_m=denoise,
         recrop=not getattr(args, "no_recrop", False),
+        scale_search=not getattr(args, "no_scale_search", False),
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,

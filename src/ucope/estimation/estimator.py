@@ -122,6 +122,23 @@ def compact(pts: np.ndarray) -> bool:
     return outer <= COMPACT_FACTOR * core
 
 
+def _object_score(p: _Pass) -> float:
+    """The object score of a pass: its smallest part score (:attr:`PoseResult.score`)."""
+    return min(pe.score for pe in p.parts)
+
+
+@dataclass
+class _Estimate:
+    """One or two passes of :meth:`Estimator.predict` (:meth:`Estimator._estimate`): the one that stands,
+    the labels of the prepared cloud's points, the support planes left out, summed timings, warnings."""
+
+    final: _Pass
+    labels: np.ndarray
+    planes: list
+    timings: dict
+    warnings: list[str]
+
+
 @dataclass
 class _Pass:
     """One estimate of :meth:`Estimator.predict` on a prepared cloud of ``P`` points."""
@@ -203,6 +220,15 @@ class Estimator:
             models trained with one, a support plane) or the
             object's points need the rescaling, a second one estimates on the object's points alone. On
             by default; measured in docs/robustness.md.
+        scale_search: with ``rescale``, estimate twice, on the cloud at the scale the rescaling gives it
+            and on the cloud normalised to the middle of the model's typical radii whatever its size
+            (:meth:`input_scale` with ``normalise=True``), and return the estimate with the higher
+            object score (:attr:`PoseResult.score`; ties: the first). An object 1.5x larger than the
+            model's sizes still lies inside the radii it saw and is not rescaled, but its boxes come out
+            too small; normalised it is estimated where the model knows it, while a view the first
+            estimate gets right keeps its higher score. Only for a model with a ``calibration`` (its
+            scores predict success; raw vote scores do not). Costs a second estimate; on by default,
+            measured in docs/results.md.
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -229,6 +255,7 @@ class Estimator:
         upright: bool = True,
         denoise_above_m: float | None = None,
         recrop: bool = True,
+        scale_search: bool = True,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -265,6 +292,7 @@ class Estimator:
         self.upright = bool(upright)
         self.denoise_above_m = None if denoise_above_m is None else float(denoise_above_m)
         self.recrop = bool(recrop)
+        self.scale_search = bool(scale_search)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
@@ -351,39 +379,15 @@ class Estimator:
                 "to put the given up direction at image up for the estimate; the result is turned back"
             )
         t_prep = time.perf_counter() - t0
-        # With recrop, the first pass rescales only a compact cloud (:func:`compact`): a floor or stray
-        # points widen the cloud and would trigger the rescaling (the network was trained on such clouds
-        # at their own scale); the second pass decides it on the points the first segmented as the object.
-        # (Never rescaling the first pass lost objects at 2x: unscaled, the network segments much of
-        # them as background, and their remaining points no longer look too large.)
-        first = self._pass(pts, nrm, units, roll, len(raw), rescale=self.rescale and (not self.recrop or compact(pts)))
-        final, labels, planes, timings = first, first.labels, [first.plane], dict(first.timings)
-        obj = first.labels >= 0
-        left_out = float(np.mean(~obj))
-        if self.recrop and np.count_nonzero(obj) >= MIN_POINTS:
-            again = left_out >= RECROP_MIN_FRACTION and np.count_nonzero(~obj) >= MIN_POINTS
-            if not again:
-                obj[:] = True  # a few stray labels: the second pass (if any) sees the whole cloud
-            if again or (self.rescale and self.input_scale(pts[obj])[0] != 1.0):
-                try:
-                    n_obj = round(len(raw) * float(np.mean(obj)))  # the input's object points, as the calibration counts them
-                    second = self._pass(pts[obj], None if nrm is None else nrm[obj], units, roll, n_obj, rescale=self.rescale)
-                except InputError as e:  # the object's points alone look like no object of the category
-                    warnings.append(
-                        f"the second pass on the {np.count_nonzero(obj)} object points failed ({e}); the first stands"
-                    )
-                else:
-                    if again:
-                        warnings += first.input_warnings
-                        what = "a support plane and the background" if first.plane is not None else "the background"
-                        warnings.append(
-                            f"{100 * left_out:.0f} % of the points were segmented as not the object ({what}) "
-                            "and left out; the pose was estimated again on the rest"
-                        )
-                    final, planes = second, planes + [second.plane]
-                    labels = np.full(len(pts), -1, dtype=np.int64)
-                    labels[obj] = second.labels
-                    timings = {key: timings[key] + second.timings[key] for key in timings}
+        est = self._estimate(pts, nrm, units, roll, len(raw), normalise=False)
+        if self.rescale and self.scale_search and self.calibration is not None:
+            alt = self._estimate(pts, nrm, units, roll, len(raw), normalise=True)
+            timings = {key: est.timings[key] + alt.timings[key] for key in est.timings}
+            if _object_score(alt.final) > _object_score(est.final):
+                est = alt
+            est.timings = timings
+        final, labels, planes, timings = est.final, est.labels, est.planes, est.timings
+        warnings += est.warnings
         warnings += final.input_warnings + final.warnings
         warnings = list(dict.fromkeys(warnings))  # a warning both passes gave, once
         t4 = time.perf_counter()
@@ -406,8 +410,60 @@ class Estimator:
             features=final.features,
         )
 
+    def _estimate(
+        self, pts: np.ndarray, nrm: np.ndarray | None, units: str, roll: np.ndarray | None, num_input: int, normalise: bool
+    ) -> _Estimate:
+        """One or two passes (:meth:`predict`) on the prepared cloud ``pts`` ``(P, 3)``, rescaled by
+        :meth:`input_scale` (``normalise``: to the middle of the typical radii whatever its size)."""
+        warnings: list[str] = []
+        # With recrop, the first pass rescales only a compact cloud (:func:`compact`): a floor or stray
+        # points widen the cloud and would trigger the rescaling (the network was trained on such clouds
+        # at their own scale); the second pass decides it on the points the first segmented as the object.
+        # (Never rescaling the first pass lost objects at 2x: unscaled, the network segments much of
+        # them as background, and their remaining points no longer look too large.)
+        first = self._pass(
+            pts, nrm, units, roll, num_input, rescale=self.rescale and (not self.recrop or compact(pts)), normalise=normalise
+        )
+        final, labels, planes, timings = first, first.labels, [first.plane], dict(first.timings)
+        obj = first.labels >= 0
+        left_out = float(np.mean(~obj))
+        if self.recrop and np.count_nonzero(obj) >= MIN_POINTS:
+            again = left_out >= RECROP_MIN_FRACTION and np.count_nonzero(~obj) >= MIN_POINTS
+            if not again:
+                obj[:] = True  # a few stray labels: the second pass (if any) sees the whole cloud
+            if again or (self.rescale and self.input_scale(pts[obj], normalise)[0] != 1.0):
+                try:
+                    n_obj = round(num_input * float(np.mean(obj)))  # the input's object points, as the calibration counts them
+                    second = self._pass(
+                        pts[obj], None if nrm is None else nrm[obj], units, roll, n_obj, rescale=self.rescale, normalise=normalise
+                    )
+                except InputError as e:  # the object's points alone look like no object of the category
+                    warnings.append(
+                        f"the second pass on the {np.count_nonzero(obj)} object points failed ({e}); the first stands"
+                    )
+                else:
+                    if again:
+                        warnings += first.input_warnings
+                        what = "a support plane and the background" if first.plane is not None else "the background"
+                        warnings.append(
+                            f"{100 * left_out:.0f} % of the points were segmented as not the object ({what}) "
+                            "and left out; the pose was estimated again on the rest"
+                        )
+                    final, planes = second, planes + [second.plane]
+                    labels = np.full(len(pts), -1, dtype=np.int64)
+                    labels[obj] = second.labels
+                    timings = {key: timings[key] + second.timings[key] for key in timings}
+        return _Estimate(final, labels, planes, timings, warnings)
+
     def _pass(
-        self, pts: np.ndarray, nrm: np.ndarray | None, units: str, roll: np.ndarray | None, num_input: int, rescale: bool
+        self,
+        pts: np.ndarray,
+        nrm: np.ndarray | None,
+        units: str,
+        roll: np.ndarray | None,
+        num_input: int,
+        rescale: bool,
+        normalise: bool = False,
     ) -> _Pass:
         """One estimate on a prepared cloud ``pts`` ``(P, 3)`` float32 (camera frame, metres, turned by
         ``roll`` when given; canonical order) with optional normals ``(P, 3)``, standing for ``num_input``
@@ -436,7 +492,7 @@ class Estimator:
         else:
             plane = None
         input_warnings += self._extent_warnings(pts, units)  # about the cloud: kept from a first pass
-        scale, centre = self.input_scale(pts) if rescale else (1.0, np.zeros(3))
+        scale, centre = self.input_scale(pts, normalise) if rescale else (1.0, np.zeros(3))
         if scale != 1.0:
             pts = (centre + scale * (pts - centre)).astype(np.float32)
             warnings.append(
@@ -555,7 +611,7 @@ class Estimator:
         }
         return _Pass(parts, joints, point_labels, plane, feats, warnings, input_warnings, timings)
 
-    def input_scale(self, points: np.ndarray) -> tuple[float, np.ndarray]:
+    def input_scale(self, points: np.ndarray, normalise: bool = False) -> tuple[float, np.ndarray]:
         """``(s, c)``: the factor :meth:`predict` scales ``points`` ``(N, 3)`` by about their median point
         ``c`` ``(3,)`` (camera frame, metres): 1 unless ``rescale`` is on and the cloud's radius ``r``
         (:func:`ucope.priors.cloud_radius`, at most :data:`RESCALE_CORE_FACTOR` x twice its median radius,
@@ -565,7 +621,8 @@ class Estimator:
         knows, where sizes come out right. The upper trigger is the largest radius, not the 98th
         percentile, because a floor, a bleeding mask or outliers also widen a cloud (measured: the 98th
         percentile cost the eyeglasses 14-20 points of success under them). A model without typical radii
-        uses ``radius_range_m`` for both. docs/results.md has the measured effect."""
+        uses ``radius_range_m`` for both. ``normalise``: ``sqrt(lo hi) / r`` whatever ``r`` (the second
+        estimate of ``scale_search``). docs/results.md has the measured effect."""
         pts = np.asarray(points, np.float64)
         full = self.priors.radius_range_m
         if not self.rescale or full is None:
@@ -574,7 +631,7 @@ class Estimator:
         centre, outer, core = _radii(pts)
         r = min(outer, RESCALE_CORE_FACTOR * core)
         lo, hi = float(typ[0]), float(typ[1])
-        if r <= 0.0 or lo <= r <= float(full[1]):
+        if r <= 0.0 or (not normalise and lo <= r <= float(full[1])):
             return 1.0, centre
         return float(np.sqrt(lo * hi) / r), centre
 

@@ -329,6 +329,7 @@ def evaluate(
             "segment_pairs": getattr(estimator, "segment_pairs", estimator.awareness),
             "vote_caps": getattr(getattr(estimator, "options", None), "capped", True),
             "recrop": getattr(estimator, "recrop", False),
+            "scale_search": getattr(estimator, "scale_search", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "revolution_factor": getattr(getattr(estimator, "options", None), "revolution_factor", None),
