@@ -8,7 +8,8 @@ For every model, ``--num`` unseen test views of its category (generator defaults
 per instance, seed ``--seed``) are scaled about the object's centre by each factor of ``--factors``
 (:func:`ucope.data.sample.scale_sample`: points, part poses, sizes, pivots and prismatic states; the view's
 perspective is kept) and estimated twice: as they are (``rescale=False``) and with the estimator's
-rescaling into the training sizes (``rescale=True``, :meth:`ucope.estimation.Estimator.input_scale`).
+rescaling into the training sizes (``rescale=True``, :meth:`ucope.estimation.Estimator.input_scale`) and
+the estimator's other defaults (its scale search among them).
 A view succeeds when every part is within 10 degrees and 10 % of its ground-truth box diagonal
 (:func:`ucope.eval.evaluate.sample_errors`: symmetric parts and a mug with a hidden handle by their y axis).
 Reported per model, factor and setting: success fraction, median rotation error (deg, over parts and

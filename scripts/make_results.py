@@ -289,10 +289,11 @@ TABLE3_MECHANISMS = (
 
 
 def same_test_set(a: dict, b: dict) -> bool:
-    """Whether two reports were measured on the same test views (generator, split, seed, count, folder name)."""
+    """Whether two reports were measured on the same test views: the same category, generator, split, seed and
+    count (sample i of a generated data set is the same wherever and into whichever folder it was generated)."""
     da, db = a.get("data", {}), b.get("data", {})
     keys = ("generator_version", "split", "seed", "num_samples")
-    return all(da.get(k) == db.get(k) for k in keys) and Path(str(da.get("path"))).name == Path(str(db.get("path"))).name
+    return all(da.get(k) == db.get(k) for k in keys) and a.get("category") == b.get("category")
 
 
 def ablation_row(rep: dict, label: str) -> str:
@@ -821,8 +822,10 @@ def main() -> int:
             f"{st['pairs']:,} pairs), each scaled about the object's centre by the factor (points, poses, sizes, "
             "pivots, prismatic states); success = "
             f"{b['success']}. Each cell: success % / median box size ratio (cube root of predicted over true "
-            "volume), first as the model sees the cloud (`--no-rescale`), then with the estimator's rescaling "
-            "into the training sizes (the default, `Estimator(rescale=True)`).",
+            "volume), first as the model sees the cloud (`--no-rescale`), then with the estimator's defaults: "
+            "the rescaling into the training sizes (`Estimator(rescale=True)`) and, where the first estimate's "
+            "score is below 0.9, the scale search (a second estimate on the cloud normalised to the model's "
+            "typical radii, the higher-scored one standing; `--no-scale-search`).",
             "",
             "| model | " + " | ".join(f"x{f} as is" for f in facs) + " | " + " | ".join(f"x{f} rescaled" for f in facs) + " |",
             "|---|" + "---|" * (2 * len(facs)),
