@@ -127,7 +127,7 @@ def test_table3_rows_must_share_one_test_set_and_list_each_command_once(tmp_path
     assert "pairs from the predicted segment, score filter off" in text
     cmds = [ln for ln in lines if ln.startswith("Commands:")][0]
     assert cmds.count("ucope eval --rot 24") == 1  # pairs20000 is in both tables, its command once
-    (tmp_path / "eyeglasses_t3_no_awareness.json").write_text(json.dumps(_fake_report(9.0, data_path="other/eyeglasses_test2")))
+    (tmp_path / "eyeglasses_t3_no_awareness.json").write_text(json.dumps(_fake_report(9.0, generator="1")))
     with pytest.raises(SystemExit, match="one test set"):
         mr.table3_section(tmp_path)
 
