@@ -84,3 +84,37 @@ def test_bad_settings_are_named():
         AugmentConfig(p_floor=1.5)
     with pytest.raises(InputError, match="noise_m"):
         AugmentConfig(noise_m=(0.01, 0.001))
+
+
+def test_settings_change_the_named_fields_and_round_trip_through_json_lists():
+    cfg = AugmentConfig.from_settings(0.5, {"p_noise": 0.8, "noise_m": [0.002, 0.01], "resample_points": [150.0, 900.0]})
+    assert cfg.probability == 0.5 and cfg.p_noise == 0.8
+    assert cfg.noise_m == (0.002, 0.01) and cfg.resample_points == (150, 900)
+    assert cfg.p_floor == AugmentConfig().p_floor  # the rest keep the table's values
+    assert AugmentConfig.from_settings(0.7, None) == AugmentConfig()
+
+
+def test_settings_that_are_unknown_or_malformed_are_named():
+    with pytest.raises(InputError, match="unknown augmentation setting.*p_nois.*known: p_occlude"):
+        AugmentConfig.from_settings(0.5, {"p_nois": 0.5})
+    with pytest.raises(InputError, match="probability"):
+        AugmentConfig.from_settings(0.5, {"probability": 0.5})  # that is the first argument, not a setting
+    with pytest.raises(InputError, match="noise_m must be a range of two numbers"):
+        AugmentConfig.from_settings(0.5, {"noise_m": 0.005})
+    with pytest.raises(InputError, match="p_noise must be a probability"):
+        AugmentConfig.from_settings(0.5, {"p_noise": "often"})
+    with pytest.raises(InputError, match="p_noise must be a probability in"):
+        AugmentConfig.from_settings(0.5, {"p_noise": 2.0})
+
+
+def test_stronger_noise_settings_move_the_points_further(sample):
+    """Only isotropic noise, always on: the settings' range is what the points see."""
+    only_noise = dict(p_occlude=0.0, p_bleed=0.0, p_floor=0.0, p_outliers=0.0, p_axial=0.0, p_resample=0.0, p_noise=1.0)
+    weak = AugmentConfig.from_settings(1.0, {**only_noise, "noise_m": [0.001, 0.001]})
+    strong = AugmentConfig.from_settings(1.0, {**only_noise, "noise_m": [0.01, 0.01]})
+    pw, _, _ = augment_sample(sample, np.random.default_rng(3), weak)
+    ps, _, _ = augment_sample(sample, np.random.default_rng(3), strong)
+    dw = np.linalg.norm(pw - sample["points"], axis=1).mean()
+    ds = np.linalg.norm(ps - sample["points"], axis=1).mean()
+    # the mean length of a 3D Gaussian step is 1.596 sigma
+    assert dw == pytest.approx(1.596e-3, rel=0.1) and ds == pytest.approx(1.596e-2, rel=0.1)

@@ -142,6 +142,17 @@ def test_cli_train_errors_are_one_line(tmp_path, capsys):
     assert "ucope train: error:" in err and "does not exist" in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [("p_noise", "write KEY=VALUE"), ("p_noise=often", "a number or LO,HI"), ("noise=0.5", "unknown augmentation setting")],
+)
+def test_cli_augment_settings_errors_are_one_line(tmp_path, capsys, setting, message):
+    args = ["train", "--category", "laptop", "--on-the-fly", "--steps", "1", "--out", str(tmp_path / "r")]
+    assert main([*args, "--augment", "0.5", "--augment-set", setting]) == 2
+    err = capsys.readouterr().err
+    assert "ucope train: error:" in err and message in err and "Traceback" not in err
+
+
 def test_cli_train_on_a_data_set(tmp_path, capsys):
     assert (
         main(
@@ -264,6 +275,15 @@ def test_augmented_training_learns_a_background_class(tmp_path):
     assert out["seg_logits"].shape == (1, 256, 3) and out["masks"].shape == (1, 256, 2)
     rows = [json.loads(x) for x in (tmp_path / "aug" / "metrics.jsonl").read_text().splitlines()]
     assert all(math.isfinite(r["train/loss"]) for r in rows if "train/loss" in r)
+
+
+def test_augment_settings_are_checked_and_kept_in_the_model_card(tmp_path):
+    with pytest.raises(InputError, match="need augmentation on"):
+        tiny_train_config(tmp_path / "a", augment_settings={"p_noise": 0.5}).validate()
+    with pytest.raises(InputError, match="unknown augmentation setting"):
+        tiny_train_config(tmp_path / "a", augment=0.5, augment_settings={"noise": 0.5}).validate()
+    card = train(tiny_train_config(tmp_path / "b", augment=1.0, steps=2, augment_settings={"noise_m": [0.002, 0.01]}))
+    assert card["train_config"]["augment_settings"] == {"noise_m": [0.002, 0.01]}
 
 
 def test_fine_tuning_adds_the_background_class_and_keeps_the_part_rows(tmp_path):

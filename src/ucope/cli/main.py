@@ -264,6 +264,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         allow_changed_settings=args.allow_changed_settings,
         augment=args.augment,
+        augment_settings=_augment_settings(args.augment_set),
         new_priors=args.new_priors,
     )
     card = train(tc)
@@ -272,6 +273,21 @@ def cmd_train(args: argparse.Namespace) -> int:
         extra = f", validation loss {val['loss']:.4f}" if "loss" in val else ""
         print(f"trained {card['category']} for {card['steps']} steps ({card['train_time_s']:.0f} s{extra}); model in {args.out}")
     return 0
+
+
+def _augment_settings(items: list[str] | None) -> dict:
+    """``--augment-set KEY=VALUE ...`` as ``{key: float or [lo, hi]}`` (checked by the training config)."""
+    out: dict = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key or not value:
+            raise UcopeError(f"--augment-set {item!r}: write KEY=VALUE, e.g. p_noise=0.6 or noise_m=0.002,0.010")
+        try:
+            nums = [float(x) for x in value.split(",")]
+        except ValueError:
+            raise UcopeError(f"--augment-set {item!r}: the value must be a number or LO,HI") from None
+        out[key.strip()] = nums[0] if len(nums) == 1 else nums
+    return out
 
 
 def _estimator(args: argparse.Namespace):
@@ -647,6 +663,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="P",
         help="corrupt each training item with chance P (occlusion, floor and neighbour points, outliers, noise, "
         "fewer points; the model gets a background class); default 0: off",
+    )
+    t.add_argument(
+        "--augment-set",
+        nargs="+",
+        default=None,
+        metavar="KEY=VALUE",
+        help="with --augment: change a corruption's chance or level range from ucope.data.augment's table, "
+        "e.g. p_noise=0.6 noise_m=0.002,0.010 resample_points=100,1000 (ranges as LO,HI; metres for noise_m)",
     )
     t.add_argument(
         "--head",

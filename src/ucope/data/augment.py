@@ -26,6 +26,7 @@ an augmented item is the same on any machine and after a resume. Added points ca
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -81,6 +82,41 @@ class AugmentConfig:
             lo, hi = getattr(self, name)
             if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
                 raise InputError(f"augmentation {name} must be a range 0 <= lo <= hi, got {(lo, hi)}")
+
+    @classmethod
+    def from_settings(cls, probability: float, settings: dict | None = None) -> AugmentConfig:
+        """The configuration with chance ``probability`` and the fields in ``settings`` changed.
+
+        Args:
+            probability: :attr:`probability`.
+            settings: ``{field: value}`` for any other field: a probability for a ``p_*`` field, a pair
+                ``[lo, hi]`` for a range (``noise_m`` in metres, ``resample_points`` point counts). JSON
+                lists are taken as pairs, so a model card's ``train_config`` round-trips.
+
+        Raises:
+            InputError: an unknown field (the known ones are named), a range that is not two numbers,
+                or a value out of its bounds.
+        """
+        settings = dict(settings or {})
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = sorted(k for k in settings if k not in fields or k == "probability")
+        if unknown:
+            known = ", ".join(k for k in fields if k != "probability")
+            raise InputError(f"unknown augmentation setting(s) {', '.join(unknown)}; known: {known}")
+        kw: dict = {}
+        for k, v in settings.items():
+            if k.startswith("p_"):
+                try:
+                    kw[k] = float(v)
+                except (TypeError, ValueError):
+                    raise InputError(f"augmentation {k} must be a probability, got {v!r}") from None
+                continue
+            try:
+                lo, hi = (float(x) for x in v)
+            except (TypeError, ValueError):
+                raise InputError(f"augmentation {k} must be a range of two numbers [lo, hi], got {v!r}") from None
+            kw[k] = (int(round(lo)), int(round(hi))) if k == "resample_points" else (lo, hi)
+        return cls(probability=float(probability), **kw)
 
 
 MIN_DEPTH_M = 0.05

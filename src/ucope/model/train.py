@@ -104,6 +104,10 @@ class TrainConfig:
             outliers, noise, fewer points: :mod:`ucope.data.augment`); 0 = off. The model needs the
             background class (``model_overrides={"background_class": True}``, set automatically for a new
             run or a fine-tuning with ``augment > 0``).
+        augment_settings: with ``augment > 0``, other chances and level ranges of the corruptions than
+            :class:`ucope.data.augment.AugmentConfig`'s defaults, ``{field: value}`` (for example
+            ``{"p_noise": 0.6, "noise_m": [0.002, 0.010]}``: more and stronger isotropic noise);
+            validated by :meth:`AugmentConfig.from_settings`.
         progress: show a progress bar (rank 0).
     """
 
@@ -135,6 +139,7 @@ class TrainConfig:
     init_from: str | None = None
     allow_changed_settings: bool = False
     augment: float = 0.0
+    augment_settings: dict = field(default_factory=dict)
     new_priors: bool = False
     progress: bool = True
 
@@ -160,6 +165,10 @@ class TrainConfig:
             raise InputError("workers must be >= 0")
         if not 0.0 <= float(self.augment) <= 1.0:
             raise InputError(f"augment must be a probability in [0, 1], got {self.augment!r}")
+        if self.augment_settings:
+            if not float(self.augment) > 0:
+                raise InputError("augment_settings need augmentation on (augment > 0)")
+            AugmentConfig.from_settings(float(self.augment), self.augment_settings)
         for name in ("seed", "data_seed"):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 0:
@@ -506,7 +515,10 @@ class _Run:
         if dd.enabled:
             self.net = torch.nn.parallel.DistributedDataParallel(self.model, device_ids=[self.device.index] if use_cuda else None)
         self.items = TrainingItems(
-            self.samples, self.cfg, seed=tc.seed, augment=AugmentConfig(probability=tc.augment) if tc.augment > 0 else None
+            self.samples,
+            self.cfg,
+            seed=tc.seed,
+            augment=AugmentConfig.from_settings(tc.augment, tc.augment_settings) if tc.augment > 0 else None,
         )
         self.per_step = tc.batch_size * dd.world
         self.steps_per_epoch = len(self.items) // self.per_step
