@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import platform
 import sys
 import time
@@ -113,20 +114,35 @@ def main(argv=None) -> None:
 
 def write_results(out: Path, fmt: str, settings: dict, models: dict, t0: float, threads: int) -> dict:
     """Write a view benchmark's results (``benchmarks/bench_scale.py``, ``bench_roll.py``) atomically:
-    format, version, date, settings, the success rule, per-model results, wall time since ``t0``
-    (``time.perf_counter``) and the machine."""
-    res = {
-        "format": fmt,
-        "ucope": __version__,
+    format, version, settings, the success rule, per-model results and, per run, its date, models, wall
+    time since ``t0`` (``time.perf_counter``) and machine.
+
+    A run of some models merges into an existing file of the same format and settings (its other models
+    are kept, so re-measuring a retrained model does not re-run the rest); a file with other settings is
+    refused (``SystemExit``) rather than overwritten with a mix."""
+    run = {
         "date": datetime.date.today().isoformat(),
-        "settings": settings,
-        "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its box diagonal",
-        "models": models,
+        "models": list(models),
         "time_s": time.perf_counter() - t0,
         "hardware": {"platform": platform.platform(), "torch": torch.__version__, "threads": threads},
     }
+    merged, runs = dict(models), [run]
+    if out.is_file():
+        old = json.loads(out.read_text())
+        if old.get("format") != fmt or old.get("settings") != json.loads(json.dumps(settings)):
+            raise SystemExit(f"{out} holds results of other settings or format; use another --out (or delete it)")
+        merged = {**old.get("models", {}), **models}
+        runs = old.get("runs", []) + [run]
+    res = {
+        "format": fmt,
+        "ucope": __version__,
+        "settings": settings,
+        "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its box diagonal",
+        "models": merged,
+        "runs": runs,
+    }
     atomic_write_json(out, res)
-    print(f"wrote {out} ({res['time_s'] / 60:.1f} min)")
+    print(f"wrote {out} ({run['time_s'] / 60:.1f} min)")
     return res
 
 
