@@ -40,11 +40,17 @@ from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.model.checkpoint import find_model  # noqa: E402
 
 
-def view_spec(rng: np.random.Generator) -> str:
-    """``""`` (clean) with chance 1/4, else one corruption kind at one of its non-clean benchmark levels."""
+NEEDS_BACKGROUND = ("floor", "bleed")
+"""Kinds that add points from the view's background pool; a view without one (nothing but the object
+rendered around it) is not given them."""
+
+
+def view_spec(rng: np.random.Generator, has_background: bool = True) -> str:
+    """``""`` (clean) with chance 1/4, else one corruption kind at one of its non-clean benchmark levels
+    (not :data:`NEEDS_BACKGROUND` where the view has no background pool)."""
     if rng.random() < 0.25:
         return ""
-    names = sorted(k for k in KINDS if k != "shuffle")
+    names = sorted(k for k in KINDS if k != "shuffle" and (has_background or k not in NEEDS_BACKGROUND))
     kind = KINDS[names[int(rng.integers(len(names)))]]
     levels = [lv for lv in kind.levels if lv != kind.identity]
     return f"{kind.name}={levels[int(rng.integers(len(levels)))]:g}"
@@ -72,10 +78,11 @@ def calibrate(model: str, num: int, seed: int, pairs: int) -> dict:
     for i in range(num):
         s = make_sample(cfg, i)
         rng = np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(zlib.crc32(cat.encode()), i)))
-        spec = view_spec(rng)
+        ctx = sample_context(s)
+        spec = view_spec(rng, ctx.background is not None)
         pts, lab = s["points"], np.asarray(s["part_labels"])
         if spec:
-            pts, lab = corrupt(pts, lab, spec, rng, sample_context(s))
+            pts, lab = corrupt(pts, lab, spec, rng, ctx)
         r = est.predict(pts)
         ok = part_success(r, s, np.asarray(pts)[np.asarray(lab) >= 0])
         obj_rows.append((len(feats), len(r.parts), bool(ok.all())))
