@@ -39,7 +39,6 @@ from ucope.eval.metrics import part_errors  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.model.checkpoint import find_model  # noqa: E402
 
-
 NEEDS_BACKGROUND = ("floor", "bleed")
 """Kinds that add points from the view's background pool; a view without one (nothing but the object
 rendered around it) is not given them."""
