@@ -22,8 +22,9 @@ is packaged, its score calibration above all, sees the run as it will ship).
 Every mode also sets the model's default for the kinematic refinement (``info.defaults.refine``, which
 ``Estimator.load`` and the command line take unless told otherwise) from the reports
 ``<cat>_norefine.json`` and ``<cat>_refine.json`` (``ucope eval --no-refine`` / ``--refine``) when
-both exist: on when it lowers the summed mean rotation error, keeps every part's 10deg10cm fraction
-and costs no part more than one point of mean 3D IoU (:func:`refine_default`).
+both exist: on when it lowers the summed mean rotation error, does not lower the success fraction
+(every part under 10 degrees and 10 % of its box diagonal; every part's 10deg10cm fraction for reports
+without one) and costs no part more than one point of mean 3D IoU (:func:`refine_default`).
 """
 
 from __future__ import annotations
@@ -74,7 +75,10 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
     same views (refinement off / on): see the module docstring."""
     po, pn = off["parts"], on["parts"]
     better_rot = sum(pn["rotation_deg"]["mean"]) < sum(po["rotation_deg"]["mean"])
-    keeps_10 = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"], strict=False))
+    if "success" in off and "success" in on:  # the object's success, as every other page measures it
+        keeps_10 = on["success"]["fraction"] >= off["success"]["fraction"]
+    else:  # reports from before the success fraction: every part's 10deg10cm fraction
+        keeps_10 = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"], strict=False))
     keeps_iou = all(b >= a - max_iou_loss for a, b in zip(po["iou"]["mean"], pn["iou"]["mean"], strict=False))
     return bool(better_rot and keeps_10 and keeps_iou)
 
