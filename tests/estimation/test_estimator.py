@@ -350,14 +350,15 @@ def test_prediction_needs_only_the_model_not_the_generators(tmp_path):
 
 def test_a_carried_part_gets_a_halved_score_and_a_warning(monkeypatch):
     """When :func:`ucope.voting.kinematic.carry_upright` re-places a part, the result says so and halves
-    that part's score; ``upright=False`` skips it. (The carry itself: tests/voting/test_kinematic.py.)"""
+    that part's score; ``upright=False`` skips it. (The carry itself: tests/voting/test_kinematic.py.)
+    One estimate each: with the scale search, the lower score could make a second estimate win."""
     import ucope.voting.object as vo
 
     s = make_sample(GenerateConfig(category="laptop", split="test", num=1, views_per_instance=1), 0)
-    plain = Estimator.load("laptop", num_pairs=2000, upright=False).predict_sample(s)
+    plain = Estimator.load("laptop", num_pairs=2000, upright=False, scale_search=False).predict_sample(s)
     assert not any("placed from its neighbour" in w for w in plain.warnings)
     monkeypatch.setattr(vo, "carry_upright", lambda T, S, priors: (np.array(T), np.array([True, False])))
-    marked = Estimator.load("laptop", num_pairs=2000).predict_sample(s)
+    marked = Estimator.load("laptop", num_pairs=2000, scale_search=False).predict_sample(s)
     assert sum("part 'base'" in w and "placed from its neighbour" in w for w in marked.warnings) == 1
     assert marked.parts[0].score == pytest.approx(0.5 * plain.parts[0].score)
     assert marked.parts[1].score == pytest.approx(plain.parts[1].score)

@@ -37,7 +37,7 @@ def test_a_small_or_large_cloud_is_estimated_in_the_training_sizes_and_scaled_ba
     s, est = drawer
     small = scale_sample(s, factor)["points"]
     scale, centre = est.input_scale(small)
-    lo, hi = est.priors.radius_range_m
+    lo, hi = est.priors.radius_typical_m or est.priors.radius_range_m  # the middle of the typical radii
     assert scale != 1.0 and np.isclose(cloud_radius(centre + scale * (small - centre)), np.sqrt(lo * hi), rtol=1e-6)
     got = est.predict(small)
     assert any("scaled by" in w for w in got.warnings)
