@@ -76,11 +76,11 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
     po, pn = off["parts"], on["parts"]
     better_rot = sum(pn["rotation_deg"]["mean"]) < sum(po["rotation_deg"]["mean"])
     if "success" in off and "success" in on:  # the object's success, as every other page measures it
-        keeps_10 = on["success"]["fraction"] >= off["success"]["fraction"]
+        keeps_success = on["success"]["fraction"] >= off["success"]["fraction"]
     else:  # reports from before the success fraction: every part's 10deg10cm fraction
-        keeps_10 = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"], strict=False))
+        keeps_success = all(b >= a for a, b in zip(po["fraction"]["10deg10cm"], pn["fraction"]["10deg10cm"], strict=False))
     keeps_iou = all(b >= a - max_iou_loss for a, b in zip(po["iou"]["mean"], pn["iou"]["mean"], strict=False))
-    return bool(better_rot and keeps_10 and keeps_iou)
+    return bool(better_rot and keeps_success and keeps_iou)
 
 
 def set_defaults(info: dict, reports: Path, cat: str) -> None:

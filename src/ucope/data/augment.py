@@ -98,11 +98,10 @@ class AugmentConfig:
                 or a value out of its bounds.
         """
         settings = dict(settings or {})
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        unknown = sorted(k for k in settings if k not in fields or k == "probability")
+        known = [f.name for f in dataclasses.fields(cls) if f.name != "probability"]
+        unknown = sorted(set(settings) - set(known))
         if unknown:
-            known = ", ".join(k for k in fields if k != "probability")
-            raise InputError(f"unknown augmentation setting(s) {', '.join(unknown)}; known: {known}")
+            raise InputError(f"unknown augmentation setting(s) {', '.join(unknown)}; known: {', '.join(known)}")
         kw: dict = {}
         for k, v in settings.items():
             if k.startswith("p_"):
