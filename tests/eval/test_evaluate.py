@@ -11,7 +11,15 @@ from tests_support import measured_priors
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.estimation.result import JointEstimate, PartEstimate, PoseResult
-from ucope.eval.evaluate import EVAL_FORMAT, evaluate, format_report, mug_handle_visible, rigid_figures, sample_errors
+from ucope.eval.evaluate import (
+    EVAL_FORMAT,
+    evaluate,
+    format_report,
+    mug_handle_kept,
+    mug_handle_visible,
+    rigid_figures,
+    sample_errors,
+)
 from ucope.model.config import ModelConfig
 from ucope.vocab import JointType
 
@@ -164,6 +172,28 @@ def test_mug_handle_visibility_follows_the_points():
     assert mug_handle_visible(s) == (np.count_nonzero(~body & (local[:, 0] > -0.5 * sx + sz + 0.002)) >= 20)
     s["points"] = np.asarray(s["points"])[body]
     assert not mug_handle_visible(s)
+
+
+def test_a_corrupted_mug_shows_its_handle_by_the_clean_points_it_kept_with_a_scaled_threshold():
+    """mug_handle_kept: the kept object points' clean positions, 20 handle points scaled by the share kept."""
+    s = next((dict(m) for m in samples("mug") if mug_handle_visible(m)), None)
+    assert s is not None, "the test needs a mug sample that shows its handle"
+    T, (sx, _, sz) = np.asarray(s["cam_from_part"][0]), s["size_m"][0]
+    pts = np.asarray(s["points"])
+    n = len(pts)
+    on_handle = np.flatnonzero(((pts - T[:3, 3]) @ T[:3, :3])[:, 0] > -0.5 * sx + sz + 0.002)
+    body = np.setdiff1d(np.arange(n), on_handle)
+    everything = np.arange(n)
+    assert mug_handle_kept(s, everything) == mug_handle_visible(s)
+    # a tenth of the cloud with 2 handle points: 20 x 0.1 = 2 are enough; 1 is not
+    keep = max(n // 10, 4)
+    two = np.r_[on_handle[:2], body[: keep - 2]]
+    assert mug_handle_kept(s, two)
+    assert not mug_handle_kept(s, np.r_[on_handle[:1], body[: keep - 1]])
+    # added points (-1) are neither kept object points nor handle evidence, wherever they lie
+    assert not mug_handle_kept(s, np.r_[body, -np.ones(500, dtype=np.int64)])
+    # the clean positions decide: moving the kept points does not change the answer (src is all it reads)
+    assert mug_handle_kept(s, np.r_[two, -1]) == mug_handle_kept(s, two)
 
 
 def test_category_mismatch_is_named():
