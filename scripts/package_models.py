@@ -16,8 +16,9 @@ change to the voting), leaving their weights alone.
 
     python scripts/package_models.py --set-defaults --runs work/runs --reports work/reports --categories eyeglasses
 
-writes only that default into the runs' own ``model.json`` (so that what is measured on a run before it
-is packaged, its score calibration above all, sees the run as it will ship).
+writes only that default (and ``--remove-plane``'s, when given) into the runs' own ``model.json`` (so that
+what is measured on a run before it is packaged, its score calibration above all, sees the run as it will
+ship).
 
 Every mode also sets the model's default for the kinematic refinement (``info.defaults.refine``, which
 ``Estimator.load`` and the command line take unless told otherwise) from the reports
@@ -84,13 +85,13 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
 
 
 def set_defaults(info: dict, reports: Path, cat: str) -> None:
-    """``info["defaults"]`` from the refine-off / refine-on reports of ``cat``, if both exist."""
+    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist;
+    the other defaults (``remove_plane``, ``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
-        info["defaults"] = {
-            "refine": refine_default(json.loads(off.read_text()), json.loads(on.read_text())),
-            "decided_from": [off.name, on.name],
-        }
+        info.setdefault("defaults", {}).update(
+            refine=refine_default(json.loads(off.read_text()), json.loads(on.read_text())), decided_from=[off.name, on.name]
+        )
 
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
@@ -110,14 +111,16 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
     return 0
 
 
-def set_run_defaults(runs: Path, reports: Path, cats: list[str]) -> int:
-    """``--set-defaults``: :func:`set_defaults` into ``runs/<cat>/model.json``."""
+def set_run_defaults(runs: Path, reports: Path, cats: list[str], remove_plane: list[str] | None = None) -> int:
+    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane``, when given) into ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
         path = runs / cat / "model.json"
         meta = json.loads(path.read_text())
         set_defaults(meta.setdefault("info", {}), reports, cat)
+        if remove_plane is not None:
+            meta["info"].setdefault("defaults", {})["remove_plane"] = cat in remove_plane
         atomic_write_json(path, meta)
         print(f"{cat}: defaults {meta['info'].get('defaults')} in {path}")
     return 0
@@ -156,7 +159,7 @@ def main() -> int:
         ap.error("--runs is required (unless --figures-only)")
     if args.set_defaults:
         cats = args.categories or [p.parent.name for p in args.runs.glob("*/model.json")]
-        return set_run_defaults(args.runs, args.reports, cats)
+        return set_run_defaults(args.runs, args.reports, cats, args.remove_plane)
     dest.mkdir(parents=True, exist_ok=True)
     cats = args.categories or [c for c in CATEGORY_NAMES if (args.runs / c / "model.json").is_file()]
     for cat in cats:

@@ -18,12 +18,13 @@
 # 2026-12-03 after their recipe: 3,000 steps from that model with `--new-priors --augment 0.65` on 5,000
 # generator-2 views (lr 5e-4, x0.1 at 80 %; the dishwasher gentler: lr 2e-4, --augment 0.5), then, for
 # an articulated model, its refinement default from its refine-off / on reports, and a score calibration
-# (scripts/calibrate_scores.py, 300 validation views); PLANE_CATS leave a support plane out by default.
+# (scripts/calibrate_scores.py, 300 validation views) of the run with its defaults: PLANE_CATS leave a
+# support plane out, DENOISE_CATS smooth a cloud noisier than their validation views.
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
-# ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid) get the second robustness stage of
-# 2026-12-05 after that (round2_recipe below: more and stronger isotropic noise for the thin eyeglasses
-# and scissors, a longer augmented stage for the dishwasher, more floor for the laptops, and the drawer's
+# ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
+# stage of 2026-12-05 after that (round2_recipe below: more and stronger isotropic noise for the thin eyeglasses
+# and scissors, a longer augmented stage for the dishwasher and the camera, more floor for the laptops, and the drawer's
 # first one, from its generator-1 model to generator-2 views with new priors); the stage before it is kept as
 # runs/CATEGORY_round1, and the calibration and refinement default are measured on the final model.
 set -euo pipefail
@@ -35,8 +36,9 @@ WORK=${WORK:-work}
 CATS=${CATS:-"laptop mug eyeglasses drawer scissors dishwasher bottle bowl camera can laptop_rigid"}
 BASELINE_CATS=${BASELINE_CATS-"laptop drawer camera mug"}  # empty: no baseline
 ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors eyeglasses dishwasher"}  # empty: none
-ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid"}  # empty: none
+ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid camera"}  # empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
+DENOISE_CATS=${DENOISE_CATS-"mug camera can"}  # smooth clouds noisier than their training views (set_denoise_default.py)
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
 TEST_NUM=${TEST_NUM:-200}
@@ -167,25 +169,30 @@ robust() {  # robust CATEGORY [OUT]: the robustness stage, runs/CATEGORY_prerobu
   calibrate_final "$c"
 }
 
-calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's refinement default (articulated) and score calibration
+calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and score calibration
   local c=$1
   case $c in laptop|eyeglasses|dishwasher|scissors|drawer)  # calibrate the run as it will ship: its refinement default
     evaluate "$c" "$c" "${c}_norefine" --no-refine
-    evaluate "$c" "$c" "${c}_refine" --refine
-    "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" ;;
+    evaluate "$c" "$c" "${c}_refine" --refine ;;
   esac
+  # shellcheck disable=SC2086
+  "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
+    --remove-plane $PLANE_CATS
+  if [[ " $DENOISE_CATS " == *" $c "* ]]; then
+    "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
+  fi
   "$PY" scripts/calibrate_scores.py --models "$WORK/runs/$c" --num "${CALIBRATE_NUM:-300}" --threads 1
 }
 
 # The second robustness stage (2026-12-05): "VIEWS STEPS LR" and the training options of each category, on
 # VIEWS generator-2 views of data seed 3 (learning rate x0.1 at 80 % of the steps; 1 CPU thread each, the
 # model cards hold the times: eyeglasses 21 min, scissors 20, dishwasher 21, drawer 56, laptop 16, two or
-# three at a time; laptop_rigid 6.4 min alone on 2 threads).
+# three at a time; laptop_rigid 6.4 min alone on 2 threads; camera 22 min beside one other job).
 round2_recipe() {  # round2_recipe CATEGORY
   case $1 in
     eyeglasses) echo "5000 4000 3e-4 --augment 0.65 --augment-set p_noise=0.5 noise_m=0.001,0.010 p_resample=0.45" ;;
     scissors) echo "5000 4000 3e-4 --augment 0.65 --augment-set p_noise=0.5 noise_m=0.001,0.010" ;;
-    dishwasher) echo "6000 5000 3e-4 --augment 0.65" ;;
+    dishwasher|camera) echo "6000 5000 3e-4 --augment 0.65" ;;
     drawer) echo "8000 9000 5e-4 --augment 0.65 --new-priors" ;;
     laptop|laptop_rigid) echo "5000 3000 3e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0" ;;
     *) echo "" ;;
@@ -245,7 +252,7 @@ if [ "$PACKAGE" = 1 ]; then
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS --remove-plane $PLANE_CATS
   for c in $CATS; do
-    if "$PY" -c "import sys, ucope; e = ucope.Estimator.load('$c'); sys.exit(0 if (e.refine or e.remove_plane) else 1)"; then
+    if "$PY" -c "import sys, ucope; e = ucope.Estimator.load('$c'); sys.exit(0 if (e.refine or e.remove_plane or e.denoise_above_m is not None) else 1)"; then
       rm -f "$WORK/reports/$c.json"
       "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet
     fi
