@@ -27,6 +27,8 @@
 # and scissors, a longer augmented stage for the dishwasher and the camera, more floor for the laptops, and the drawer's
 # first one, from its generator-1 model to generator-2 views with new priors); the stage before it is kept as
 # runs/CATEGORY_round1, and the calibration and refinement default are measured on the final model.
+# ROUND3_CATS (default: dishwasher) get a third stage after it (round3_recipe; the second kept as
+# runs/CATEGORY_round2).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -37,6 +39,7 @@ CATS=${CATS:-"laptop mug eyeglasses drawer scissors dishwasher bottle bowl camer
 BASELINE_CATS=${BASELINE_CATS-"laptop drawer camera mug"}  # empty: no baseline
 ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors eyeglasses dishwasher"}  # empty: none
 ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid camera"}  # empty: none
+ROUND3_CATS=${ROUND3_CATS-"dishwasher"}  # a third stage after the second (ROUND2_CATS only); empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their training views (set_denoise_default.py)
 ROBUST_NUM=${ROBUST_NUM:-5000}
@@ -199,20 +202,38 @@ round2_recipe() {  # round2_recipe CATEGORY
   esac
 }
 
-round2() {  # round2 CATEGORY: runs/CATEGORY_round1 -> runs/CATEGORY, then its refinement default and calibration
-  local c=$1 run="$WORK/runs/$1" n steps lr extra resume=""
-  if [ -f "$run/model.json" ] && grep -q '"calibration"' "$run/model.json"; then return 0; fi
-  read -r n steps lr extra <<<"$(round2_recipe "$c")"
+# The third stage (2026-12-05, a second session): the dishwasher with more floor and more resampled views
+# on data seed 4 (21 min beside one other job).
+round3_recipe() {  # round3_recipe CATEGORY
+  case $1 in
+    dishwasher) echo "6000 4000 3e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
+    *) echo "" ;;
+  esac
+}
+
+later_stage() {  # later_stage CATEGORY ROUND FROM_RUN OUT_RUN DATA_SEED: ROUND's recipe from runs/FROM_RUN to runs/OUT_RUN
+  local c=$1 round=$2 from=$3 run="$WORK/runs/$4" seed=$5 n steps lr extra resume=""
+  if [ -f "$run/model.json" ]; then return 0; fi
+  read -r n steps lr extra <<<"$("${round}_recipe" "$c")"
   n=${TRAIN_NUM:-$n}
   steps=${STEPS:-$steps}
-  data "$c" train "$n" 3 "${c}_train_round2_$n"
-  if [ ! -f "$run/model.json" ]; then
-    if [ -f "$run/checkpoint.json" ]; then resume="--resume"; fi
-    # shellcheck disable=SC2086
-    "$UCOPE" train --category "$c" --data "$WORK/data/${c}_train_round2_$n" --val-data "$WORK/data/${c}_val" --out "$run" \
-      --init "$WORK/runs/${c}_round1" --steps "$steps" --lr "$lr" \
-      --lr-step-epochs "$(awk -v s="$steps" -v n="$n" 'BEGIN { printf "%.3f", 0.8 * s * 8 / n }')" \
-      --batch-size 8 --threads 1 --device "$DEVICE" $(category_args "$c") $extra --quiet $resume
+  data "$c" train "$n" "$seed" "${c}_train_${round}_$n"
+  if [ -f "$run/checkpoint.json" ]; then resume="--resume"; fi
+  # shellcheck disable=SC2086
+  "$UCOPE" train --category "$c" --data "$WORK/data/${c}_train_${round}_$n" --val-data "$WORK/data/${c}_val" --out "$run" \
+    --init "$WORK/runs/$from" --steps "$steps" --lr "$lr" \
+    --lr-step-epochs "$(awk -v s="$steps" -v n="$n" 'BEGIN { printf "%.3f", 0.8 * s * 8 / n }')" \
+    --batch-size 8 --threads 1 --device "$DEVICE" $(category_args "$c") $extra --quiet $resume
+}
+
+later_stages() {  # later_stages CATEGORY: runs/CATEGORY_round1 -> (round 2, round 3) -> runs/CATEGORY, calibrated
+  local c=$1 run="$WORK/runs/$1"
+  if [ -f "$run/model.json" ] && grep -q '"calibration"' "$run/model.json"; then return 0; fi
+  if [[ " $ROUND3_CATS " == *" $c "* ]]; then
+    later_stage "$c" round2 "${c}_round1" "${c}_round2" 3
+    later_stage "$c" round3 "${c}_round2" "$c" 4
+  else
+    later_stage "$c" round2 "${c}_round1" "$c" 3
   fi
   calibrate_final "$c"
 }
@@ -237,7 +258,7 @@ for c in $CATS; do
   else
     train_category "$c" "$final"
   fi
-  if [[ " $ROUND2_CATS " == *" $c "* ]]; then round2 "$c"; fi
+  if [[ " $ROUND2_CATS " == *" $c "* ]]; then later_stages "$c"; fi
   evaluate "$c" "$c" "$c"
 done
 for c in $CATS; do  # the kinematic refinement off / on, measured on every articulated category
