@@ -488,10 +488,10 @@ def upright_section(R: Path) -> list[str]:
         "points voted it on end) is re-placed from a neighbour through their joint: the state within the limits that "
         "brings it nearest its upright, its centre from where the joint axis passes in both parts' boxes "
         "(`ucope.voting.carry_upright`, docs/voting.md; `Estimator(upright=False)` / `--no-upright` turn it off). It "
-        "assumes the training views' camera: upright, looking from above. Shipped models (their half-precision "
-        "weights), generator-2 test views, shipped defaults; each pair of rows on the same views. Success % and mean "
-        "rotation error per part (deg) per camera-yaw bin (front / side / back), and the mean translation error per "
-        "part (fraction of the box diagonal).",
+        "assumes the training views' camera: upright, looking from above. Shipped models (their stored weights, "
+        "half precision where the packaging check allowed), generator-2 test views, shipped defaults; each pair of "
+        "rows on the same views. Success % and mean rotation error per part (deg) per camera-yaw bin (front / side / "
+        "back), and the mean translation error per part (fraction of the box diagonal).",
         "",
         "| category (views) | carry | success | success front / side / back (%) | rotation front / side / back (deg) "
         "| translation (diag.) |",
