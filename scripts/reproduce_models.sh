@@ -27,7 +27,7 @@
 # and scissors, a longer augmented stage for the dishwasher and the camera, more floor for the laptops, and the drawer's
 # first one, from its generator-1 model to generator-2 views with new priors); the stage before it is kept as
 # runs/CATEGORY_round1, and the calibration and refinement default are measured on the final model.
-# ROUND3_CATS (default: dishwasher) get a third stage after it (round3_recipe; the second kept as
+# ROUND3_CATS (default: dishwasher laptop) get a third stage after it (round3_recipe; the second kept as
 # runs/CATEGORY_round2).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,7 +39,7 @@ CATS=${CATS:-"laptop mug eyeglasses drawer scissors dishwasher bottle bowl camer
 BASELINE_CATS=${BASELINE_CATS-"laptop drawer camera mug"}  # empty: no baseline
 ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors eyeglasses dishwasher"}  # empty: none
 ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid camera"}  # empty: none
-ROUND3_CATS=${ROUND3_CATS-"dishwasher"}  # a third stage after the second (ROUND2_CATS only); empty: none
+ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop"}  # a third stage after the second (ROUND2_CATS only); empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their training views (set_denoise_default.py)
 ROBUST_NUM=${ROBUST_NUM:-5000}
@@ -202,11 +202,12 @@ round2_recipe() {  # round2_recipe CATEGORY
   esac
 }
 
-# The third stage (2026-12-05, a second session): the dishwasher with more floor and more resampled views
-# on data seed 4 (21 min beside one other job).
+# The third stage (2026-12-05, a second session): the dishwasher and the laptop with more floor and more
+# resampled views on data seed 4 (dishwasher 21 min beside one other job; laptop 7.5 min alone on 2 threads).
 round3_recipe() {  # round3_recipe CATEGORY
   case $1 in
     dishwasher) echo "6000 4000 3e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
+    laptop) echo "5000 3000 2e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
     *) echo "" ;;
   esac
 }
