@@ -196,6 +196,15 @@ def test_a_corrupted_mug_shows_its_handle_by_the_clean_points_it_kept_with_a_sca
     assert mug_handle_kept(s, np.r_[two, -1]) == mug_handle_kept(s, two)
 
 
+def test_mug_handle_kept_names_a_bad_provenance():
+    s = samples("mug")[0]
+    n = len(s["points"])
+    for bad in (np.zeros((3, 2), np.int64), np.array([0.5, 1.0]), np.array([n]), np.array([-2, 0])):
+        with pytest.raises(InputError, match="src"):
+            mug_handle_kept(s, bad)
+    assert not mug_handle_kept(s, np.zeros(0, np.int64))  # nothing kept: no handle shown
+
+
 def test_category_mismatch_is_named():
     with pytest.raises(InputError, match="mug"):
         evaluate(Oracle("laptop"), samples("mug"), progress=False)

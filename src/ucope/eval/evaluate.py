@@ -103,12 +103,20 @@ def mug_handle_kept(sample: Mapping, src: np.ndarray, min_points: int = 20) -> b
     clean cloud kept (at least 1): a mug cut to 100 of its 2,000 points shows its handle with 1 of them.
 
     Args:
-        sample: the clean sample (``cam_from_part``, ``size_m``, ``points`` ``(N, 3)``).
+        sample: the clean sample: ``cam_from_part`` ``(1, 4, 4)``, ``size_m`` ``(1, 3)`` (metres) and
+            ``points`` ``(N, 3)`` (camera frame, metres).
         src: ``(M,)`` int, for each point of the corrupted cloud the index of the clean point it came
             from, ``-1`` for an added one (:func:`ucope.data.corrupt.corrupt` applied to ``arange(N)``).
+
+    Raises:
+        InputError: ``src`` not a 1-D integer array, or an index outside ``[-1, N)``.
     """
     src = np.asarray(src)
     n = len(sample["points"])
+    if src.ndim != 1 or (src.size and not np.issubdtype(src.dtype, np.integer)):
+        raise InputError(f"src must be a 1-D integer array of clean-point indices, got shape {src.shape} and dtype {src.dtype}")
+    if src.size and (src.min() < -1 or src.max() >= n):
+        raise InputError(f"src indices must lie in [-1, {n}) (-1: an added point), got {src.min()}..{src.max()}")
     kept = np.unique(src[src >= 0])
     need = max(1, round(int(min_points) * len(kept) / max(n, 1)))
     clean = {"cam_from_part": sample["cam_from_part"], "size_m": sample["size_m"], "points": np.asarray(sample["points"])[kept]}
