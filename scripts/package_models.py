@@ -84,14 +84,17 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
     return bool(better_rot and keeps_success and keeps_iou)
 
 
-def set_defaults(info: dict, reports: Path, cat: str) -> None:
-    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist;
-    the other defaults (``remove_plane``, ``denoise_above_m``) are kept."""
+def set_defaults(info: dict, reports: Path, cat: str, remove_plane: list[str] | None = None) -> None:
+    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
+    and ``remove_plane`` (``cat in remove_plane``) when that list is given; the other defaults
+    (``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
         info.setdefault("defaults", {}).update(
             refine=refine_default(json.loads(off.read_text()), json.loads(on.read_text())), decided_from=[off.name, on.name]
         )
+    if remove_plane is not None:
+        info.setdefault("defaults", {})["remove_plane"] = cat in remove_plane
 
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
@@ -118,9 +121,7 @@ def set_run_defaults(runs: Path, reports: Path, cats: list[str], remove_plane: l
     for cat in cats:
         path = runs / cat / "model.json"
         meta = json.loads(path.read_text())
-        set_defaults(meta.setdefault("info", {}), reports, cat)
-        if remove_plane is not None:
-            meta["info"].setdefault("defaults", {})["remove_plane"] = cat in remove_plane
+        set_defaults(meta.setdefault("info", {}), reports, cat, remove_plane)
         atomic_write_json(path, meta)
         print(f"{cat}: defaults {meta['info'].get('defaults')} in {path}")
     return 0
@@ -178,9 +179,7 @@ def main() -> int:
         fp16_ok = change[0] <= args.max_change_deg and change[1] <= args.max_change_m
         info = dict(meta.get("info", {}))
         info["test"] = test_figures(rep)
-        set_defaults(info, args.reports, cat)
-        if args.remove_plane is not None:
-            info.setdefault("defaults", {})["remove_plane"] = cat in args.remove_plane
+        set_defaults(info, args.reports, cat, args.remove_plane)
         info["fp16_check"] = {
             "num_samples": n,
             "max_change_rotation_deg": change[0],
