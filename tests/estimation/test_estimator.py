@@ -424,3 +424,32 @@ def test_cli_smoothing_and_revolution_flags_reach_the_estimator(tiny_run):
     assert o["scale_search"] and o["recrop"]
     o = estimator_options(argparse.Namespace(**base, no_scale_search=True, no_recrop=True))
     assert not o["scale_search"] and not o["recrop"] and not Estimator.load(tiny_run, **o).scale_search
+
+
+def test_grown_boxes_hold_their_points_and_keep_the_rotations(est, sample, tiny_run, tmp_path):
+    """``grow_boxes``: the same estimate with every box at least as large (rotations and scores kept); the
+    model's JSON default is taken by ``load``; the CLI flag reaches it."""
+    import argparse
+    import shutil
+
+    from ucope.cli.outputs import estimator_options
+
+    off = Estimator(est.model, num_pairs=2000).predict_sample(sample)
+    on = Estimator(est.model, num_pairs=2000, grow_boxes=True).predict_sample(sample)
+    for a, b in zip(off.parts, on.parts, strict=True):
+        np.testing.assert_allclose(b.cam_from_part[:3, :3], a.cam_from_part[:3, :3])
+        assert np.all(b.size_m >= a.size_m - 1e-12) and b.score == a.score
+    np.testing.assert_array_equal(on.part_labels, off.part_labels)
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    meta = json.loads((run / "model.json").read_text())
+    meta.setdefault("info", {})["defaults"] = {"grow_boxes": True}
+    (run / "model.json").write_text(json.dumps(meta))
+    assert Estimator.load(run).grow_boxes and not Estimator.load(run, grow_boxes=False).grow_boxes
+    assert not Estimator.load(tiny_run).grow_boxes
+    base = dict(
+        pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
+        remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
+    )  # fmt: skip
+    assert estimator_options(argparse.Namespace(**base))["grow_boxes"] is None
+    assert not Estimator.load(run, **estimator_options(argparse.Namespace(**base, grow_boxes=False))).grow_boxes

@@ -497,6 +497,13 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "on for the shipped models where it measured better, docs/robustness.md)",
     )
     p.add_argument(
+        "--grow-boxes",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="widen every part's box to hold the points segmented as that part, for objects of shapes the model "
+        "never saw (default: the model's own; on for the shipped models where it measured better, docs/results.md)",
+    )
+    p.add_argument(
         "--denoise-above",
         type=float,
         default=None,

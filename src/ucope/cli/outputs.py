@@ -197,6 +197,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         rescale=not args.no_rescale,
         remove_plane=args.remove_plane,
         denoise_above_m=denoise,
+        grow_boxes=getattr(args, "grow_boxes", None),
         recrop=not getattr(args, "no_recrop", False),
         scale_search=not getattr(args, "no_scale_search", False),
         device=args.device,

@@ -44,7 +44,7 @@ from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
 from ..priors import cloud_radius
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
-from ..voting import ShapeIndex, VotingOptions, regressed_object, vote_object
+from ..voting import ShapeIndex, VotingOptions, grow_to_points, regressed_object, vote_object
 from .confidence import Calibration, part_features
 from .inputs import (
     MIN_POINTS,
@@ -240,6 +240,12 @@ class Estimator:
             estimate gets right keeps its higher score. Only for a model with a ``calibration`` (its
             scores predict success; raw vote scores do not). Costs a second estimate; on by default,
             measured in docs/results.md.
+        grow_boxes: widen every part's box to hold the points segmented as that part
+            (:func:`ucope.voting.grow_to_points`: never shrunk, thin axes and parts symmetric about y
+            kept), after the part scores are computed: objects whose shape family the model never saw
+            get boxes of their own proportions rather than the training objects'. Off here;
+            :meth:`load` takes the model's default (on where it measured better on the OOD split
+            without costing the test split or the robustness benchmark: docs/results.md).
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -267,6 +273,7 @@ class Estimator:
         denoise_above_m: float | None = None,
         recrop: bool = True,
         scale_search: bool = True,
+        grow_boxes: bool = False,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -304,6 +311,7 @@ class Estimator:
         self.denoise_above_m = None if denoise_above_m is None else float(denoise_above_m)
         self.recrop = bool(recrop)
         self.scale_search = bool(scale_search)
+        self.grow_boxes = bool(grow_boxes)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
@@ -313,12 +321,13 @@ class Estimator:
         refine: bool | None = None,
         remove_plane: bool | None = None,
         denoise_above_m: float | None | str = "model",
+        grow_boxes: bool | None = None,
         **kwargs,
     ) -> Estimator:
         """An estimator from a run folder / model JSON path, or the name of a shipped model
         (``Estimator.load("laptop")``; :func:`ucope.model.checkpoint.list_pretrained` lists them).
 
-        ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` take the model's own defaults
+        ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` take the model's own defaults
         (``info.defaults`` of its JSON, set when it was packaged where they measured better). Other keyword
         arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
@@ -331,13 +340,15 @@ class Estimator:
             refine = bool(defaults.get("refine", False))
         if remove_plane is None:
             remove_plane = bool(defaults.get("remove_plane", False))
+        if grow_boxes is None:
+            grow_boxes = bool(defaults.get("grow_boxes", False))
         if isinstance(denoise_above_m, str):
             if denoise_above_m != "model":
                 raise InputError(f'denoise_above_m must be metres, None or "model", got {denoise_above_m!r}')
             denoise_above_m = defaults.get("denoise_above_m")
         if "calibration" not in kwargs and info.get("calibration"):
             kwargs["calibration"] = Calibration.from_dict(info["calibration"])
-        kwargs.update(refine=refine, remove_plane=remove_plane, denoise_above_m=denoise_above_m)
+        kwargs.update(refine=refine, remove_plane=remove_plane, denoise_above_m=denoise_above_m, grow_boxes=grow_boxes)
         return cls(net, name=str(Path(model)), **kwargs)
 
     @property
@@ -576,6 +587,11 @@ class Estimator:
             v, labels, seg_prob, p_net, num_input, [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
         )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
+        if self.grow_boxes:  # after the scores: the calibration's box-fit features see the voted boxes
+            v = dict(v)
+            v["cam_from_part"], v["size_m"], _ = grow_to_points(
+                v["cam_from_part"], v["size_m"], p_net, labels, [p.symmetry for p in self.priors.parts]
+            )
         carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
         scores = np.where(carried, 0.5 * scores, scores)
         if scale != 1.0:

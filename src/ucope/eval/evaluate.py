@@ -361,6 +361,7 @@ def evaluate(
             "scale_search": getattr(estimator, "scale_search", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
+            "grow_boxes": getattr(estimator, "grow_boxes", False),
             "revolution_factor": getattr(getattr(estimator, "options", None), "revolution_factor", None),
         },
         "data": dict(data_info or {}, num_samples=n),

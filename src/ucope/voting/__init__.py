@@ -17,6 +17,7 @@ measured accuracy.
 * :func:`resolve_joint_flips`, :func:`resolve_shape_flips` (:class:`ShapeIndex`), :func:`kinematic_refine`.
 * :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
+* :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 from .axis import AxisOptions, choose_axis_sign, fibonacci_sphere, vote_axis
 from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
+from .extent import grow_to_points
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
     ShapeIndex,
@@ -66,4 +68,5 @@ __all__ = [
     "part_fit",
     "regressed_object",
     "regression_scores",
+    "grow_to_points",
 ]

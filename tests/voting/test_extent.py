@@ -1,0 +1,110 @@
+"""grow_to_points: against a plain per-axis reference, and its contract (never shrinks, thin axes,
+symmetric parts, few points, labels outside the parts, bad input)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ucope.errors import InputError
+from ucope.geometry.transforms import make_transform, random_rotation
+from ucope.voting import grow_to_points
+
+
+def reference(T, S, pts, labels, sym, q, thin, min_points):
+    """Plain loops over parts and axes, the contract written out."""
+    T, S = np.array(T, float), np.array(S, float)
+    for k in range(len(T)):
+        own = [p for p, lab in zip(pts, labels, strict=True) if lab == k]
+        if sym[k] != "none" or len(own) < min_points:
+            continue
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        local = np.array([R.T @ (p - t) for p in own])
+        shift, voted = np.zeros(3), S[k].copy()
+        for a in range(3):
+            if voted[a] < thin * np.median(voted):
+                continue
+            lo = min(-S[k, a] / 2, np.quantile(local[:, a], q))
+            hi = max(S[k, a] / 2, np.quantile(local[:, a], 1 - q))
+            shift[a] = (lo + hi) / 2
+            S[k, a] = hi - lo
+        T[k, :3, 3] = t + R @ shift
+    return T, S
+
+
+def _scene(rng, K=3, n=400):
+    T = np.stack([make_transform(random_rotation(rng), rng.normal(size=3) * 0.2 + [0, 0, 1.0]) for _ in range(K)])
+    S = rng.uniform(0.05, 0.4, (K, 3))
+    labels = rng.integers(-1, K + 1, n)  # -1 and K: no part
+    pts = rng.normal(size=(n, 3)) * 0.15 + [0, 0, 1.0]
+    return T, S, pts, labels
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_matches_the_plain_reference(seed):
+    rng = np.random.default_rng(seed)
+    T, S, pts, labels = _scene(rng)
+    sym = ["none", "y", "none"]
+    got_T, got_S, grown = grow_to_points(T, S, pts, labels, sym, quantile=0.02, thin_ratio=0.3, min_points=20)
+    ref_T, ref_S = reference(T, S, pts, labels, sym, 0.02, 0.3, 20)
+    np.testing.assert_allclose(got_T, ref_T, atol=1e-12)
+    np.testing.assert_allclose(got_S, ref_S, atol=1e-12)
+    np.testing.assert_array_equal(grown, ~np.isclose(got_S, S).all(axis=1) | ~np.isclose(got_T, T).all(axis=(1, 2)))
+    np.testing.assert_array_equal(got_T[:, :3, :3], T[:, :3, :3])  # rotations kept
+
+
+def test_a_too_narrow_box_grows_to_its_points_and_a_wide_one_is_kept():
+    rng = np.random.default_rng(1)
+    T = make_transform(random_rotation(rng), np.array([0.1, -0.05, 1.2]))
+    true = np.array([0.6, 0.3, 0.5])
+    local = rng.uniform(-0.5, 0.5, (3000, 3)) * true
+    pts = local @ T[:3, :3].T + T[:3, 3]
+    narrow = np.array([0.4, 0.3, 0.6])  # x too small, z too big
+    T2, S2, grown = grow_to_points(T[None], narrow[None], pts, np.zeros(3000, int), quantile=0.0)
+    assert grown[0]
+    np.testing.assert_allclose(S2[0], [np.ptp(local[:, 0]), 0.3, 0.6], atol=1e-9)  # y, z held them already
+    box_lo = T2[0, :3, :3].T @ (pts - T2[0, :3, 3]).T
+    assert np.all(np.abs(box_lo.T) <= S2[0] / 2 + 1e-9)  # every point inside the grown box
+    same_T, same_S, grown = grow_to_points(T[None], (true * 1.2)[None], pts, np.zeros(3000, int))
+    assert not grown[0]
+    np.testing.assert_array_equal(same_S[0], true * 1.2)
+    np.testing.assert_array_equal(same_T[0], T)
+
+
+def test_thin_axes_symmetric_parts_and_sparse_parts_are_kept():
+    rng = np.random.default_rng(2)
+    T = np.stack([np.eye(4)] * 3)
+    T[:, 2, 3] = 1.0
+    S = np.array([[0.5, 0.6, 0.01], [0.1, 0.1, 0.1], [0.1, 0.1, 0.1]])  # a plate; a symmetric part; a sparse one
+    pts = np.concatenate(
+        [rng.normal(size=(500, 3)) * [0.5, 0.5, 0.05], rng.normal(size=(500, 3)) * 0.3, rng.normal(size=(10, 3))]
+    )
+    pts[:, 2] += 1.0
+    labels = np.repeat([0, 1, 2], [500, 500, 10])
+    _, S2, grown = grow_to_points(T, S, pts, labels, ["none", "y", "none"])
+    assert grown.tolist() == [True, False, False]
+    assert S2[0, 2] == 0.01 and S2[0, 0] > 0.5 and S2[0, 1] > 0.6  # the plate's thickness is kept
+    np.testing.assert_array_equal(S2[1:], S[1:])
+
+
+def test_bad_input_is_named():
+    T, S = np.eye(4)[None], np.ones((1, 3))
+    pts, lab = np.zeros((5, 3)), np.zeros(5, int)
+    with pytest.raises(InputError, match="cam_from_part"):
+        grow_to_points(np.eye(4), S, pts, lab)
+    with pytest.raises(InputError, match="size_m"):
+        grow_to_points(T, np.ones((2, 3)), pts, lab)
+    with pytest.raises(InputError, match="size_m must be positive"):
+        grow_to_points(T, -S, pts, lab)
+    with pytest.raises(InputError, match="points"):
+        grow_to_points(T, S, np.zeros((5, 2)), lab)
+    with pytest.raises(InputError, match="labels"):
+        grow_to_points(T, S, pts, np.zeros(4, int))
+    with pytest.raises(InputError, match="labels"):
+        grow_to_points(T, S, pts, np.zeros(5))
+    with pytest.raises(InputError, match="finite"):
+        grow_to_points(T, S, np.full((5, 3), np.nan), lab)
+    with pytest.raises(InputError, match="quantile"):
+        grow_to_points(T, S, pts, lab, quantile=0.5)
+    with pytest.raises(InputError, match="symmetry"):
+        grow_to_points(T, S, pts, lab, ["none", "y"])
