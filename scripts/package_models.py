@@ -16,7 +16,7 @@ change to the voting), leaving their weights alone.
 
     python scripts/package_models.py --set-defaults --runs work/runs --reports work/reports --categories eyeglasses
 
-writes only that default (and ``--remove-plane``'s, when given) into the runs' own ``model.json`` (so that
+writes only that default (and ``--remove-plane``'s and ``--grow-boxes``', when given) into the runs' own ``model.json`` (so that
 what is measured on a run before it is packaged, its score calibration above all, sees the run as it will
 ship).
 
@@ -84,10 +84,12 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
     return bool(better_rot and keeps_success and keeps_iou)
 
 
-def set_defaults(info: dict, reports: Path, cat: str, remove_plane: list[str] | None = None) -> None:
+def set_defaults(
+    info: dict, reports: Path, cat: str, remove_plane: list[str] | None = None, grow_boxes: list[str] | None = None
+) -> None:
     """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
-    and ``remove_plane`` (``cat in remove_plane``) when that list is given; the other defaults
-    (``denoise_above_m``) are kept."""
+    ``remove_plane`` (``cat in remove_plane``) and ``grow_boxes`` (``cat in grow_boxes``) when those lists
+    are given; the other defaults (``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
         info.setdefault("defaults", {}).update(
@@ -95,10 +97,13 @@ def set_defaults(info: dict, reports: Path, cat: str, remove_plane: list[str] | 
         )
     if remove_plane is not None:
         info.setdefault("defaults", {})["remove_plane"] = cat in remove_plane
+    if grow_boxes is not None:
+        info.setdefault("defaults", {})["grow_boxes"] = cat in grow_boxes
 
 
-def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
-    """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``."""
+def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
+    """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``
+    (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes``)."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
@@ -108,20 +113,21 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str]) -> int:
         if rep.get("category") != meta["config"]["priors"]["category"]:
             raise SystemExit(f"{reports / (cat + '.json')} is a report on {rep.get('category')!r}, not {cat!r}")
         meta["info"]["test"] = test_figures(rep)
-        set_defaults(meta["info"], reports, cat)
+        set_defaults(meta["info"], reports, cat, **lists)
         atomic_write_json(meta_path, meta)
         print(f"{cat}: test figures refreshed from {reports / (cat + '.json')}; defaults {meta['info'].get('defaults')}")
     return 0
 
 
-def set_run_defaults(runs: Path, reports: Path, cats: list[str], remove_plane: list[str] | None = None) -> int:
-    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane``, when given) into ``runs/<cat>/model.json``."""
+def set_run_defaults(runs: Path, reports: Path, cats: list[str], **lists) -> int:
+    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes``, when given) into
+    ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
         path = runs / cat / "model.json"
         meta = json.loads(path.read_text())
-        set_defaults(meta.setdefault("info", {}), reports, cat, remove_plane)
+        set_defaults(meta.setdefault("info", {}), reports, cat, **lists)
         atomic_write_json(path, meta)
         print(f"{cat}: defaults {meta['info'].get('defaults')} in {path}")
     return 0
@@ -152,15 +158,24 @@ def main() -> int:
         help="the categories whose models leave a support plane out by default (info.defaults.remove_plane; "
         "docs/robustness.md has the measurements); others get it off; omitted: left as it is",
     )
+    ap.add_argument(
+        "--grow-boxes",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help="the categories whose models grow their boxes to hold their points by default (info.defaults.grow_boxes; "
+        "docs/results.md has the measurements); others get it off; omitted: left as it is",
+    )
     args = ap.parse_args()
+    lists = dict(remove_plane=args.remove_plane, grow_boxes=args.grow_boxes)
     dest = pretrained_dir()
     if args.figures_only:
-        return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))])
+        return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))], **lists)
     if args.runs is None:
         ap.error("--runs is required (unless --figures-only)")
     if args.set_defaults:
         cats = args.categories or [p.parent.name for p in args.runs.glob("*/model.json")]
-        return set_run_defaults(args.runs, args.reports, cats, args.remove_plane)
+        return set_run_defaults(args.runs, args.reports, cats, **lists)
     dest.mkdir(parents=True, exist_ok=True)
     cats = args.categories or [c for c in CATEGORY_NAMES if (args.runs / c / "model.json").is_file()]
     for cat in cats:
@@ -179,7 +194,7 @@ def main() -> int:
         fp16_ok = change[0] <= args.max_change_deg and change[1] <= args.max_change_m
         info = dict(meta.get("info", {}))
         info["test"] = test_figures(rep)
-        set_defaults(info, args.reports, cat, args.remove_plane)
+        set_defaults(info, args.reports, cat, **lists)
         info["fp16_check"] = {
             "num_samples": n,
             "max_change_rotation_deg": change[0],

@@ -10,7 +10,7 @@
 # Settings (environment): WORK (folder for data, runs and reports; default work/), CATS (categories),
 # BASELINE_CATS (categories that also get the regression baseline), ABLATION_CAT (Table 3's category),
 # STEPS / TRAIN_NUM / VAL_NUM (optimiser steps and views per model: default, each category's recipe
-# below), TEST_NUM (test views), DEVICE (auto/cpu/cuda),
+# below), TEST_NUM (test views), OOD_NUM (views of the OOD split; 0: none), DEVICE (auto/cpu/cuda),
 # PACKAGE=0 to leave src/ucope/pretrained alone, RESULTS / REPORTS (the page and its slim reports). Every step resumes: finished data sets, runs and reports
 # are kept, an interrupted training continues from its checkpoint.
 #
@@ -19,7 +19,8 @@
 # generator-2 views (lr 5e-4, x0.1 at 80 %; the dishwasher gentler: lr 2e-4, --augment 0.5), then, for
 # an articulated model, its refinement default from its refine-off / on reports, and a score calibration
 # (scripts/calibrate_scores.py, 300 validation views) of the run with its defaults: PLANE_CATS leave a
-# support plane out, DENOISE_CATS smooth a cloud noisier than their validation views.
+# support plane out, DENOISE_CATS smooth a cloud noisier than their validation views, GROW_CATS grow their
+# boxes to hold their points (ucope.voting.grow_to_points).
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
 # ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
@@ -42,6 +43,8 @@ ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_r
 ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop"}  # a third stage after the second (ROUND2_CATS only); empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their validation views (set_denoise_default.py)
+GROW_CATS=${GROW_CATS-"dishwasher drawer laptop laptop_rigid camera"}  # boxes grown to hold their points (docs/results.md)
+OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
 TEST_NUM=${TEST_NUM:-200}
@@ -180,7 +183,7 @@ calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and sc
   esac
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
-    --remove-plane $PLANE_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS
   if [[ " $DENOISE_CATS " == *" $c "* ]]; then
     "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
   fi
@@ -251,6 +254,7 @@ for c in $CATS; do
   data "$c" train "$ntrain"
   data "$c" val "$nval"
   data "$c" test "$TEST_NUM"
+  if [ "$OOD_NUM" -gt 0 ]; then data "$c" ood "$OOD_NUM"; fi
   final=$c
   if [[ " $ROUND2_CATS " == *" $c "* ]]; then final="${c}_round1"; fi
   if [[ " $ROBUST_CATS " == *" $c "* ]]; then
@@ -270,16 +274,24 @@ for c in $CATS; do  # the kinematic refinement off / on, measured on every artic
 done
 if [ "$PACKAGE" = 1 ]; then
   # The package decides each model's refinement default from its _norefine / _refine reports; the
-  # reports of the tables then use the shipped models as a user gets them (their default settings).
+  # reports of the tables then use the shipped models as a user gets them (their default settings and
+  # stored weights, float16 where the check allowed it).
   # shellcheck disable=SC2086
-  "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS --remove-plane $PLANE_CATS
+  "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS
   for c in $CATS; do
-    if "$PY" -c "import sys, ucope; e = ucope.Estimator.load('$c'); sys.exit(0 if (e.refine or e.remove_plane or e.denoise_above_m is not None) else 1)"; then
-      rm -f "$WORK/reports/$c.json"
-      "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet
-    fi
+    rm -f "$WORK/reports/$c.json"
+    "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet
   done
   "$PY" scripts/package_models.py --figures-only --reports "$WORK/reports" --categories $CATS
+fi
+if [ "$OOD_NUM" -gt 0 ]; then  # the OOD column of results.md: the shipped models (or the runs, PACKAGE=0)
+  for c in $CATS; do
+    model="$WORK/runs/$c"
+    if [ "$PACKAGE" = 1 ]; then model=$c; fi
+    rep="$WORK/reports/${c}_ood.json"
+    [ -f "$rep" ] || "$UCOPE" eval --model "$model" --data "$WORK/data/${c}_ood" --out "$rep" --quiet
+  done
 fi
 # The regression baselines, after packaging: each starts from the voting model it is compared with (its
 # encoder, segmentation and joint heads; `--init ... --head regression`), trains 3,000 more steps on that

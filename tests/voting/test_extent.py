@@ -11,7 +11,24 @@ from ucope.geometry.transforms import make_transform, random_rotation
 from ucope.voting import grow_to_points
 
 
-def reference(T, S, pts, labels, sym, q, thin, min_points):
+def joined_reference(local, half, factor):
+    """Flood fill from the points inside the box over steps of at most ``factor`` median nearest-neighbour
+    distances, with plain loops."""
+    n = len(local)
+    dist = [[float(np.linalg.norm(local[i] - local[j])) for j in range(n)] for i in range(n)]
+    radius = factor * float(np.median([min(d for j, d in enumerate(row) if j != i) for i, row in enumerate(dist)]))
+    joined = [bool(np.all(np.abs(p) <= half)) for p in local]
+    todo = [i for i in range(n) if joined[i]]
+    while todo:
+        i = todo.pop()
+        for j in range(n):
+            if not joined[j] and dist[i][j] <= radius:
+                joined[j] = True
+                todo.append(j)
+    return np.array(joined)
+
+
+def reference(T, S, pts, labels, sym, q, thin, min_points, factor=None):
     """Plain loops over parts and axes, the contract written out."""
     T, S = np.array(T, float), np.array(S, float)
     for k in range(len(T)):
@@ -20,6 +37,10 @@ def reference(T, S, pts, labels, sym, q, thin, min_points):
             continue
         R, t = T[k, :3, :3], T[k, :3, 3]
         local = np.array([R.T @ (p - t) for p in own])
+        if factor is not None:
+            local = local[joined_reference(local, S[k] / 2, factor)]
+            if len(local) < min_points:
+                continue
         shift, voted = np.zeros(3), S[k].copy()
         for a in range(3):
             if voted[a] < thin * np.median(voted):
@@ -40,13 +61,15 @@ def _scene(rng, K=3, n=400):
     return T, S, pts, labels
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_matches_the_plain_reference(seed):
+@pytest.mark.parametrize("seed,factor", [(0, None), (1, None), (2, None), (3, 1.5), (4, 3.0), (5, 8.0)])
+def test_matches_the_plain_reference(seed, factor):
     rng = np.random.default_rng(seed)
     T, S, pts, labels = _scene(rng)
     sym = ["none", "y", "none"]
-    got_T, got_S, grown = grow_to_points(T, S, pts, labels, sym, quantile=0.02, thin_ratio=0.3, min_points=20)
-    ref_T, ref_S = reference(T, S, pts, labels, sym, 0.02, 0.3, 20)
+    got_T, got_S, grown = grow_to_points(
+        T, S, pts, labels, sym, quantile=0.02, thin_ratio=0.3, min_points=20, connect_factor=factor
+    )
+    ref_T, ref_S = reference(T, S, pts, labels, sym, 0.02, 0.3, 20, factor)
     np.testing.assert_allclose(got_T, ref_T, atol=1e-12)
     np.testing.assert_allclose(got_S, ref_S, atol=1e-12)
     np.testing.assert_array_equal(grown, ~np.isclose(got_S, S).all(axis=1) | ~np.isclose(got_T, T).all(axis=(1, 2)))
@@ -60,7 +83,7 @@ def test_a_too_narrow_box_grows_to_its_points_and_a_wide_one_is_kept():
     local = rng.uniform(-0.5, 0.5, (3000, 3)) * true
     pts = local @ T[:3, :3].T + T[:3, 3]
     narrow = np.array([0.4, 0.3, 0.6])  # x too small, z too big
-    T2, S2, grown = grow_to_points(T[None], narrow[None], pts, np.zeros(3000, int), quantile=0.0)
+    T2, S2, grown = grow_to_points(T[None], narrow[None], pts, np.zeros(3000, int), quantile=0.0, connect_factor=None)
     assert grown[0]
     np.testing.assert_allclose(S2[0], [np.ptp(local[:, 0]), 0.3, 0.6], atol=1e-9)  # y, z held them already
     box_lo = T2[0, :3, :3].T @ (pts - T2[0, :3, 3]).T
@@ -87,6 +110,24 @@ def test_thin_axes_symmetric_parts_and_sparse_parts_are_kept():
     np.testing.assert_array_equal(S2[1:], S[1:])
 
 
+def test_points_across_a_gap_do_not_grow_the_box():
+    """A dense patch of the part's surface next to the box counts; a cluster of points beyond a gap (a
+    neighbour the segmentation gave to the part) and scattered outliers do not, unless the test is off."""
+    rng = np.random.default_rng(3)
+    T = np.eye(4)
+    T[2, 3] = 1.0
+    size = np.array([0.4, 0.4, 0.4])
+    face = np.c_[rng.uniform(-0.25, 0.25, (2000, 2)), np.full(2000, -0.2)]  # the front face, 5 cm wider each side
+    far = np.c_[rng.uniform(0.6, 0.7, (200, 1)), rng.uniform(-0.2, 0.2, (200, 1)), np.full(200, -0.2)]  # 35 cm away
+    outliers = rng.uniform(-0.6, 0.6, (20, 3))
+    pts = np.concatenate([face, far, outliers]) + [0, 0, 1.0]
+    labels = np.zeros(len(pts), int)
+    _, S2, _ = grow_to_points(T[None], size[None], pts, labels, quantile=0.0)
+    assert 0.49 < S2[0, 0] < 0.51 and 0.49 < S2[0, 1] < 0.51  # the face's 0.5 m, not the far cluster's 0.95 m
+    _, S_all, _ = grow_to_points(T[None], size[None], pts, labels, quantile=0.0, connect_factor=None)
+    assert S_all[0, 0] > 0.9
+
+
 def test_bad_input_is_named():
     T, S = np.eye(4)[None], np.ones((1, 3))
     pts, lab = np.zeros((5, 3)), np.zeros(5, int)
@@ -106,5 +147,7 @@ def test_bad_input_is_named():
         grow_to_points(T, S, np.full((5, 3), np.nan), lab)
     with pytest.raises(InputError, match="quantile"):
         grow_to_points(T, S, pts, lab, quantile=0.5)
+    with pytest.raises(InputError, match="connect_factor"):
+        grow_to_points(T, S, pts, lab, connect_factor=0.0)
     with pytest.raises(InputError, match="symmetry"):
         grow_to_points(T, S, pts, lab, ["none", "y"])

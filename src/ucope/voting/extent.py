@@ -7,8 +7,13 @@ a box narrower than the points that the network itself segmented as that part: t
 since a part's amodal box holds all of its surface. :func:`grow_to_points` widens every box, axis by
 axis in the part's voted frame, until it holds the part's points (a robust range: the ``quantile`` and
 ``1 - quantile`` quantiles, so that a few mislabelled points do not stretch it), and moves its centre to
-the middle of the widened range. It never shrinks a box (the points of a partial view need not reach
-the far faces) and never touches:
+the middle of the widened range. Only points joined to the box count: the part's points that lie in
+one connected piece (a chain of steps no longer than ``connect_factor`` times the median distance from
+a part point to its nearest neighbour) with a point inside the voted box. Outliers, and a neighbour or
+background patch that the segmentation gave to the part across a gap, stay out (measured on the robustness
+benchmark's views: without this test 10 % outliers took the dishwasher from 67 to 37 % success and 25 %
+mask bleed from 63 to 30 %). It never shrinks a box (the points of a partial view need not reach the far
+faces) and never touches:
 
 * a thin axis (an extent below ``thin_ratio`` times the part's median extent: the thickness of a lid, a
   door or a blade), which sensor noise alone would widen;
@@ -30,7 +35,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["grow_to_points", "GROW_QUANTILE", "GROW_THIN_RATIO", "GROW_MIN_POINTS"]
+__all__ = ["grow_to_points", "joined_to_box", "GROW_QUANTILE", "GROW_THIN_RATIO", "GROW_MIN_POINTS", "GROW_CONNECT_FACTOR"]
 
 GROW_QUANTILE = 0.01
 """Lower quantile of a part's points along each box axis that the grown box holds (and ``1 -`` it):
@@ -42,6 +47,31 @@ GROW_THIN_RATIO = 0.25
 GROW_MIN_POINTS = 30
 """A part with fewer points than this keeps its voted box."""
 
+GROW_CONNECT_FACTOR = 8.0
+"""Longest step between joined points, in median nearest-neighbour distances of the part's points: 8 kept
+the dishwasher's OOD gain (23 -> 46 % against 47 % with every point) and its outlier and bleed figures
+(67 and 60 % against 67 and 63 % without growing, 30 benchmark views); 3 lost most of the gain (31 %)."""
+
+
+def joined_to_box(local: np.ndarray, half: np.ndarray, factor: float) -> np.ndarray:
+    """``(P,)`` bool: which points ``local`` ``(P, 3)`` (a part's frame) lie in a connected piece with a point
+    inside the box ``[-half, half]``; two points are joined when they are at most ``factor`` times the median
+    nearest-neighbour distance apart (components of that radius graph, :mod:`scipy.sparse.csgraph`)."""
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if len(local) < 2:
+        return np.all(np.abs(local) <= half, axis=1)
+    tree = cKDTree(local)
+    nn = tree.query(local, k=2)[0][:, 1]
+    radius = factor * float(np.median(nn))
+    if radius <= 0.0:  # more than half of the points are duplicates: join only equal points
+        radius = float(np.finfo(np.float64).eps)
+    graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
+    _, piece = connected_components(graph, directed=False)
+    inside = np.all(np.abs(local) <= half, axis=1)
+    return np.isin(piece, np.unique(piece[inside]))
+
 
 def grow_to_points(
     cam_from_part,
@@ -52,6 +82,7 @@ def grow_to_points(
     quantile: float = GROW_QUANTILE,
     thin_ratio: float = GROW_THIN_RATIO,
     min_points: int = GROW_MIN_POINTS,
+    connect_factor: float | None = GROW_CONNECT_FACTOR,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every part's box widened to hold the robust range of the points labelled as it (module docstring).
 
@@ -66,7 +97,9 @@ def grow_to_points(
         quantile: the robust range along each axis is ``[q, 1 - q]`` of the part's coordinates, ``q`` in
             ``[0, 0.5)``.
         thin_ratio: axes whose extent is below ``thin_ratio`` times the part's median extent are kept.
-        min_points: parts with fewer points keep their box.
+        min_points: parts with fewer points (or fewer joined to their box) keep their box.
+        connect_factor: only points joined to the box count (:func:`joined_to_box` with this factor);
+            ``None``: every point of the part.
 
     Returns:
         ``(cam_from_part, size_m, grown)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays (rotations
@@ -74,7 +107,7 @@ def grow_to_points(
 
     Raises:
         InputError: shapes that do not match, a non-finite pose, size or point, a non-positive size,
-            ``quantile`` outside ``[0, 0.5)``.
+            ``quantile`` outside ``[0, 0.5)``, a ``connect_factor`` that is not positive.
     """
     T = np.array(cam_from_part, dtype=np.float64)
     S = np.array(size_m, dtype=np.float64)
@@ -95,6 +128,8 @@ def grow_to_points(
         raise InputError(f"size_m must be positive, got {S.tolist()}")
     if not 0.0 <= quantile < 0.5:
         raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    if connect_factor is not None and not connect_factor > 0:
+        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
     sym = ["none"] * K if symmetry is None else list(symmetry)
     if len(sym) != K:
         raise InputError(f"symmetry must name {K} parts, got {len(sym)}")
@@ -105,8 +140,12 @@ def grow_to_points(
             continue
         R, t = T[k, :3, :3], T[k, :3, 3]
         q = (pts[sel] - t) @ R  # the part's points in its voted frame
-        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
         half = 0.5 * S[k]
+        if connect_factor is not None:
+            q = q[joined_to_box(q, half, connect_factor)]
+            if len(q) < min_points:
+                continue
+        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
         free = S[k] >= thin_ratio * np.median(S[k])
         new_lo = np.where(free, np.minimum(-half, lo), -half)
         new_hi = np.where(free, np.maximum(half, hi), half)
