@@ -128,6 +128,20 @@ def test_points_across_a_gap_do_not_grow_the_box():
     assert S_all[0, 0] > 0.9
 
 
+def test_points_the_segmentation_is_unsure_of_do_not_count():
+    rng = np.random.default_rng(4)
+    T = np.eye(4)
+    T[2, 3] = 1.0
+    local = rng.uniform(-0.3, 0.3, (1000, 3))
+    labels = np.zeros(1000, int)
+    conf = np.where(np.abs(local[:, 0]) > 0.2, 0.5, 0.99)  # the points beyond the 0.4 m box: unsure
+    size = np.array([[0.4, 0.6, 0.6]])
+    _, sure, grown = grow_to_points(T[None], size, local + [0, 0, 1.0], labels, confidence=conf, quantile=0.0)
+    assert not grown[0] and sure[0, 0] == 0.4
+    _, every, grown = grow_to_points(T[None], size, local + [0, 0, 1.0], labels, confidence=conf, min_confidence=0.0)
+    assert grown[0] and every[0, 0] > 0.55
+
+
 def test_bad_input_is_named():
     T, S = np.eye(4)[None], np.ones((1, 3))
     pts, lab = np.zeros((5, 3)), np.zeros(5, int)
@@ -147,6 +161,8 @@ def test_bad_input_is_named():
         grow_to_points(T, S, np.full((5, 3), np.nan), lab)
     with pytest.raises(InputError, match="quantile"):
         grow_to_points(T, S, pts, lab, quantile=0.5)
+    with pytest.raises(InputError, match="confidence"):
+        grow_to_points(T, S, pts, lab, confidence=np.ones(4))
     with pytest.raises(InputError, match="connect_factor"):
         grow_to_points(T, S, pts, lab, connect_factor=0.0)
     with pytest.raises(InputError, match="symmetry"):

@@ -590,7 +590,12 @@ class Estimator:
         if self.grow_boxes:  # after the scores: the calibration's box-fit features see the voted boxes
             v = dict(v)
             v["cam_from_part"], v["size_m"], _ = grow_to_points(
-                v["cam_from_part"], v["size_m"], p_net, labels, [p.symmetry for p in self.priors.parts]
+                v["cam_from_part"],
+                v["size_m"],
+                p_net,
+                labels,
+                [p.symmetry for p in self.priors.parts],
+                confidence=None if seg_prob is None else seg_prob.max(-1),
             )
         carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
         scores = np.where(carried, 0.5 * scores, scores)

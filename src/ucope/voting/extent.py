@@ -12,7 +12,9 @@ one connected piece (a chain of steps no longer than ``connect_factor`` times th
 a part point to its nearest neighbour) with a point inside the voted box. Outliers, and a neighbour or
 background patch that the segmentation gave to the part across a gap, stay out (measured on the robustness
 benchmark's views: without this test 10 % outliers took the dishwasher from 67 to 37 % success and 25 %
-mask bleed from 63 to 30 %). It never shrinks a box (the points of a partial view need not reach the far
+mask bleed from 63 to 30 %), and so do points the segmentation is unsure of (``confidence`` below
+``min_confidence``: outliers next to a part's surface; 10 % outliers 70 -> 60 % with every point joined to
+the box, 68 % with this test, 40 views). It never shrinks a box (the points of a partial view need not reach the far
 faces) and never touches:
 
 * a thin axis (an extent below ``thin_ratio`` times the part's median extent: the thickness of a lid, a
@@ -35,7 +37,15 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["grow_to_points", "joined_to_box", "GROW_QUANTILE", "GROW_THIN_RATIO", "GROW_MIN_POINTS", "GROW_CONNECT_FACTOR"]
+__all__ = [
+    "grow_to_points",
+    "joined_to_box",
+    "GROW_QUANTILE",
+    "GROW_THIN_RATIO",
+    "GROW_MIN_POINTS",
+    "GROW_CONNECT_FACTOR",
+    "GROW_MIN_CONFIDENCE",
+]
 
 GROW_QUANTILE = 0.01
 """Lower quantile of a part's points along each box axis that the grown box holds (and ``1 -`` it):
@@ -46,6 +56,11 @@ GROW_THIN_RATIO = 0.25
 
 GROW_MIN_POINTS = 30
 """A part with fewer points than this keeps its voted box."""
+
+GROW_MIN_CONFIDENCE = 0.9
+"""Points whose segmentation confidence is below this do not count. On the dishwasher (shipped model, 40
+benchmark views and the 100 OOD views), 10 % outliers / OOD success: 0 (every point) 60 / 46 %, 0.8 62 / 44 %,
+0.9 68 / 39 %, 0.97 70 / 28 %; without growing 70 / 23 %."""
 
 GROW_CONNECT_FACTOR = 8.0
 """Longest step between joined points, in median nearest-neighbour distances of the part's points: 8 kept
@@ -83,6 +98,8 @@ def grow_to_points(
     thin_ratio: float = GROW_THIN_RATIO,
     min_points: int = GROW_MIN_POINTS,
     connect_factor: float | None = GROW_CONNECT_FACTOR,
+    confidence=None,
+    min_confidence: float = GROW_MIN_CONFIDENCE,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every part's box widened to hold the robust range of the points labelled as it (module docstring).
 
@@ -100,6 +117,8 @@ def grow_to_points(
         min_points: parts with fewer points (or fewer joined to their box) keep their box.
         connect_factor: only points joined to the box count (:func:`joined_to_box` with this factor);
             ``None``: every point of the part.
+        confidence: ``(P,)`` the segmentation's confidence in each point's label (its class probability);
+            points below ``min_confidence`` do not count. ``None``: every point counts.
 
     Returns:
         ``(cam_from_part, size_m, grown)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays (rotations
@@ -130,6 +149,11 @@ def grow_to_points(
         raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
     if connect_factor is not None and not connect_factor > 0:
         raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
+    if confidence is not None:
+        conf = np.asarray(confidence, dtype=np.float64)
+        if conf.shape != (len(pts),) or not np.isfinite(conf).all():
+            raise InputError(f"confidence must be {len(pts)} finite values (one per point), got shape {conf.shape}")
+        lab = np.where(conf >= min_confidence, lab, -1)
     sym = ["none"] * K if symmetry is None else list(symmetry)
     if len(sym) != K:
         raise InputError(f"symmetry must name {K} parts, got {len(sym)}")
