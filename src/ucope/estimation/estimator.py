@@ -242,7 +242,8 @@ class Estimator:
             measured in docs/results.md.
         grow_boxes: widen every part's box to hold the points segmented as that part
             (:func:`ucope.voting.grow_to_points`: never shrunk, thin axes and parts symmetric about y
-            kept), after the part scores are computed: objects whose shape family the model never saw
+            kept; only points joined to the box that the segmentation is sure are not background), after
+            the part scores are computed: objects whose shape family the model never saw
             get boxes of their own proportions rather than the training objects'. Off here;
             :meth:`load` takes the model's default (on where it measured better on the OOD split
             without costing the test split or the robustness benchmark: docs/results.md).
@@ -595,7 +596,8 @@ class Estimator:
                 p_net,
                 labels,
                 [p.symmetry for p in self.priors.parts],
-                confidence=None if seg_prob is None else seg_prob.max(-1),
+                # the object, not the background, as the segmentation sees it (models with a background class)
+                confidence=1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None,
             )
         carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
         scores = np.where(carried, 0.5 * scores, scores)
