@@ -13,8 +13,8 @@ a part point to its nearest neighbour) with a point inside the voted box. Outlie
 background patch that the segmentation gave to the part across a gap, stay out (measured on the robustness
 benchmark's views: without this test 10 % outliers took the dishwasher from 67 to 37 % success and 25 %
 mask bleed from 63 to 30 %), and so do points the segmentation may take for background (``confidence``
-below ``min_confidence``: outliers next to a part's surface). It never shrinks a box (the points of a partial view need not reach the far
-faces) and never touches:
+below ``min_confidence``: outliers next to a part's surface). It never shrinks a box (the points of a
+partial view need not reach the far faces) and never touches:
 
 * a thin axis (an extent below ``thin_ratio`` times the part's median extent: the thickness of a lid, a
   door or a blade), which sensor noise alone would widen;
