@@ -26,7 +26,10 @@ def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):
     assert lo <= cloud_radius(s["points"]) <= hi
     scale, _ = est.input_scale(s["points"])
     assert scale == 1.0
-    a, b = est.predict(s["points"]), Estimator(est.model, num_pairs=2000, rescale=False).predict(s["points"])
+    a, b = (
+        est.predict(s["points"]),
+        Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes).predict(s["points"]),
+    )
     for pa, pb in zip(a.parts, b.parts, strict=True):
         np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
     assert not any("scaled by" in w for w in a.warnings)
@@ -42,7 +45,9 @@ def test_a_small_or_large_cloud_is_estimated_in_the_training_sizes_and_scaled_ba
     got = est.predict(small)
     assert any("scaled by" in w for w in got.warnings)
     # The same as estimating the scaled cloud as it is and mapping the result back by hand.
-    plain = Estimator(est.model, num_pairs=2000, rescale=False).predict((centre + scale * (small - centre)).astype(np.float32))
+    plain = Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes).predict(
+        (centre + scale * (small - centre)).astype(np.float32)
+    )
     for pg, pp in zip(got.parts, plain.parts, strict=True):
         np.testing.assert_allclose(pg.size_m, pp.size_m / scale, rtol=1e-9)
         np.testing.assert_allclose(pg.cam_from_part[:3, :3], pp.cam_from_part[:3, :3], atol=1e-12)
