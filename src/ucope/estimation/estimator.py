@@ -245,8 +245,8 @@ class Estimator:
             kept; only points joined to the box that the segmentation is sure are not background), after
             the part scores are computed: objects whose shape family the model never saw
             get boxes of their own proportions rather than the training objects'. Off here;
-            :meth:`load` takes the model's default (on where it measured better on the OOD split
-            without costing the test split or the robustness benchmark: docs/results.md).
+            :meth:`load` takes the model's default (on where it measured better: docs/results.md,
+            docs/robustness.md).
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
