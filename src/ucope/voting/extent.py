@@ -168,12 +168,14 @@ def grow_to_points(
         R, t = T[k, :3, :3], T[k, :3, 3]
         q = (pts[sel] - t) @ R  # the part's points in its voted frame
         half = 0.5 * S[k]
+        free = S[k] >= thin_ratio * np.median(S[k])
+        if np.all(np.abs(q[:, free]) <= half[free]):  # nothing beyond the box where it may grow: no graph to build
+            continue
         if connect_factor is not None:
             q = q[joined_to_box(q, half, connect_factor)]
             if len(q) < min_points:
                 continue
         lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
-        free = S[k] >= thin_ratio * np.median(S[k])
         new_lo = np.where(free, np.minimum(-half, lo), -half)
         new_hi = np.where(free, np.maximum(half, hi), half)
         if np.array_equal(new_lo, -half) and np.array_equal(new_hi, half):
