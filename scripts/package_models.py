@@ -85,10 +85,15 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
 
 
 def set_defaults(
-    info: dict, reports: Path, cat: str, remove_plane: list[str] | None = None, grow_boxes: list[str] | None = None
+    info: dict,
+    reports: Path,
+    cat: str,
+    remove_plane: list[str] | None = None,
+    grow_boxes: list[str] | None = None,
+    align_faces: list[str] | None = None,
 ) -> None:
     """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
-    ``remove_plane`` (``cat in remove_plane``) and ``grow_boxes`` (``cat in grow_boxes``) when those lists
+    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes`` and ``align_faces`` likewise when those lists
     are given; the other defaults (``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
@@ -99,11 +104,13 @@ def set_defaults(
         info.setdefault("defaults", {})["remove_plane"] = cat in remove_plane
     if grow_boxes is not None:
         info.setdefault("defaults", {})["grow_boxes"] = cat in grow_boxes
+    if align_faces is not None:
+        info.setdefault("defaults", {})["align_faces"] = cat in align_faces
 
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``
-    (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes``)."""
+    (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes`` / ``align_faces``)."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
@@ -120,7 +127,7 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
 
 
 def set_run_defaults(runs: Path, reports: Path, cats: list[str], **lists) -> int:
-    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes``, when given) into
+    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes`` / ``align_faces``, when given) into
     ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
@@ -166,8 +173,16 @@ def main() -> int:
         help="the categories whose models grow their boxes to hold their points by default (info.defaults.grow_boxes; "
         "docs/results.md has the measurements); others get it off; omitted: left as it is",
     )
+    ap.add_argument(
+        "--align-faces",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help="the categories whose models align their part rotations to the normals of flat faces by default "
+        "(info.defaults.align_faces; docs/results.md has the measurements); others get it off; omitted: left as it is",
+    )
     args = ap.parse_args()
-    lists = dict(remove_plane=args.remove_plane, grow_boxes=args.grow_boxes)
+    lists = dict(remove_plane=args.remove_plane, grow_boxes=args.grow_boxes, align_faces=args.align_faces)
     dest = pretrained_dir()
     if args.figures_only:
         return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))], **lists)

@@ -453,3 +453,37 @@ def test_grown_boxes_hold_their_points_and_keep_the_rotations(est, sample, tiny_
     )  # fmt: skip
     assert estimator_options(argparse.Namespace(**base))["grow_boxes"] is None
     assert not Estimator.load(run, **estimator_options(argparse.Namespace(**base, grow_boxes=False))).grow_boxes
+
+
+def test_aligned_faces_keep_translations_and_reach_the_settings(est, sample, tiny_run, tmp_path):
+    """``align_faces``: the sizes and labels are kept (without growth), rotations stay rotations; the
+    model's JSON default is taken by ``load``; the CLI flag reaches it; eval records it."""
+    import argparse
+    import shutil
+
+    from ucope.cli.outputs import estimator_options
+
+    off = Estimator(est.model, num_pairs=2000, grow_boxes=False).predict_sample(sample)
+    on = Estimator(est.model, num_pairs=2000, grow_boxes=False, align_faces=True).predict_sample(sample)
+    np.testing.assert_array_equal(on.part_labels, off.part_labels)
+    for a, b in zip(off.parts, on.parts, strict=True):
+        np.testing.assert_allclose(b.size_m, a.size_m)
+        R = b.cam_from_part[:3, :3]
+        np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-6)
+    # after the refinement the tree turns with its re-aligned root: the hinge stays the base's x axis
+    refined = Estimator(est.model, num_pairs=2000, refine=True, align_faces=True).predict_sample(sample)
+    hinge = refined.parts[0].cam_from_part[:3, :3] @ est.priors.joint_axes[0]
+    assert abs(float(refined.joints[0].axis @ hinge)) == pytest.approx(1.0, abs=1e-6)
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    meta = json.loads((run / "model.json").read_text())
+    meta.setdefault("info", {})["defaults"] = {"align_faces": True}
+    (run / "model.json").write_text(json.dumps(meta))
+    assert Estimator.load(run).align_faces and not Estimator.load(run, align_faces=False).align_faces
+    assert not Estimator.load(tiny_run).align_faces
+    base = dict(
+        pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
+        remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
+    )  # fmt: skip
+    assert estimator_options(argparse.Namespace(**base))["align_faces"] is None
+    assert Estimator.load(run, **estimator_options(argparse.Namespace(**base, align_faces=True))).align_faces

@@ -28,7 +28,9 @@ def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):
     assert scale == 1.0
     a, b = (
         est.predict(s["points"]),
-        Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes).predict(s["points"]),
+        Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes, align_faces=est.align_faces).predict(
+            s["points"]
+        ),
     )
     for pa, pb in zip(a.parts, b.parts, strict=True):
         np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
@@ -45,7 +47,7 @@ def test_a_small_or_large_cloud_is_estimated_in_the_training_sizes_and_scaled_ba
     got = est.predict(small)
     assert any("scaled by" in w for w in got.warnings)
     # The same as estimating the scaled cloud as it is and mapping the result back by hand.
-    plain = Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes).predict(
+    plain = Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes, align_faces=est.align_faces).predict(
         (centre + scale * (small - centre)).astype(np.float32)
     )
     for pg, pp in zip(got.parts, plain.parts, strict=True):

@@ -504,6 +504,13 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "never saw (default: the model's own; on for the shipped models where it measured better, docs/results.md)",
     )
     p.add_argument(
+        "--align-faces",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="turn each part's voted rotation so that its box axes meet the normals of its flat faces (default: the "
+        "model's own; on for the shipped models where it measured better, docs/results.md)",
+    )
+    p.add_argument(
         "--denoise-above",
         type=float,
         default=None,

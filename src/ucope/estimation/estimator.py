@@ -247,6 +247,11 @@ class Estimator:
             get boxes of their own proportions rather than the training objects'. Off here;
             :meth:`load` takes the model's default (on where it measured better: docs/results.md,
             docs/robustness.md).
+        align_faces: turn each voted part rotation so that its box axes meet the normals of the part's
+            flat faces (:func:`ucope.voting.align_parts_to_faces`; a drawer takes its cabinet's turn,
+            parts symmetric about y are left alone), before the joint checks and the part scores. Off
+            here; :meth:`load` takes the model's default (on for box-like parts where it measured better:
+            docs/results.md).
 
     Raises:
         InputError: a setting out of range (``num_pairs`` outside 10..:data:`MAX_PAIRS`, a negative
@@ -275,6 +280,7 @@ class Estimator:
         recrop: bool = True,
         scale_search: bool = True,
         grow_boxes: bool = False,
+        align_faces: bool = False,
     ):
         if not isinstance(model, UCOPENet):
             raise InputError(f"model must be a ucope network (Estimator.load reads one from a file), got {type(model).__name__}")
@@ -313,6 +319,7 @@ class Estimator:
         self.recrop = bool(recrop)
         self.scale_search = bool(scale_search)
         self.grow_boxes = bool(grow_boxes)
+        self.align_faces = bool(align_faces)
 
     # ------------------------------------------------------------------------------------- loading
     @classmethod
@@ -323,12 +330,14 @@ class Estimator:
         remove_plane: bool | None = None,
         denoise_above_m: float | None | str = "model",
         grow_boxes: bool | None = None,
+        align_faces: bool | None = None,
         **kwargs,
     ) -> Estimator:
         """An estimator from a run folder / model JSON path, or the name of a shipped model
         (``Estimator.load("laptop")``; :func:`ucope.model.checkpoint.list_pretrained` lists them).
 
-        ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` take the model's own defaults
+        ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` /
+        ``align_faces=None`` take the model's own defaults
         (``info.defaults`` of its JSON, set when it was packaged where they measured better). Other keyword
         arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
@@ -343,6 +352,8 @@ class Estimator:
             remove_plane = bool(defaults.get("remove_plane", False))
         if grow_boxes is None:
             grow_boxes = bool(defaults.get("grow_boxes", False))
+        if align_faces is None:
+            align_faces = bool(defaults.get("align_faces", False))
         if isinstance(denoise_above_m, str):
             if denoise_above_m != "model":
                 raise InputError(f'denoise_above_m must be metres, None or "model", got {denoise_above_m!r}')
@@ -350,6 +361,7 @@ class Estimator:
         if "calibration" not in kwargs and info.get("calibration"):
             kwargs["calibration"] = Calibration.from_dict(info["calibration"])
         kwargs.update(refine=refine, remove_plane=remove_plane, denoise_above_m=denoise_above_m, grow_boxes=grow_boxes)
+        kwargs.update(align_faces=align_faces)
         return cls(net, name=str(Path(model)), **kwargs)
 
     @property
@@ -581,6 +593,7 @@ class Estimator:
                 axis_heads=axis_heads,
                 shapes=self.shapes,
                 score_filter=self.score_filter,
+                align_faces=self.align_faces,
             )
         K = cfg.num_parts
         seg_prob = enc["seg_logits"][0].softmax(-1).cpu().numpy() if "seg_logits" in enc else None

@@ -18,6 +18,7 @@ measured accuracy.
 * :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
+* :func:`align_to_faces`, :func:`align_parts_to_faces`: rotations turned so that box axes meet the normals of flat faces.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from .axis import AxisOptions, choose_axis_sign, fibonacci_sphere, vote_axis
 from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
 from .extent import grow_to_points
+from .faces import align_parts_to_faces, align_to_faces
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
     ShapeIndex,
@@ -69,4 +71,6 @@ __all__ = [
     "regressed_object",
     "regression_scores",
     "grow_to_points",
+    "align_to_faces",
+    "align_parts_to_faces",
 ]
