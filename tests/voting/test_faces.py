@@ -10,6 +10,7 @@ import pytest
 from ucope.errors import InputError
 from ucope.geometry.transforms import make_transform, random_rotation
 from ucope.voting import align_parts_to_faces, align_to_faces
+from ucope.voting.faces import face_normals
 
 
 def reference(R, normals, tol_deg, iterations, prior_weight, min_points):
@@ -165,3 +166,18 @@ def test_a_chain_of_followers_turns_as_one():
     assert turned.all()
     for k in (1, 2):
         np.testing.assert_allclose(got[k - 1, :3, :3].T @ got[k, :3, :3], T[k - 1, :3, :3].T @ T[k, :3, :3], atol=1e-12)
+
+
+def test_face_normals_count_each_point_once():
+    """A sparse cloud repeated up to the network's count gets the normals of its distinct points (a
+    neighbourhood of copies has none), over the same share of them (16 of 1,024 -> at least 6), and a
+    plane's normals are its normal."""
+    rng = np.random.default_rng(10)
+    R = random_rotation(rng)
+    plane = np.c_[rng.uniform(-0.1, 0.1, (100, 2)), rng.normal(0.0, 1e-4, 100)] @ R.T + [0, 0, 1.0]
+    idx = np.concatenate([np.arange(100), rng.integers(0, 100, 924)])
+    got = face_normals(plane[idx])
+    np.testing.assert_allclose(got, face_normals(plane, k=6)[idx], atol=1e-12)
+    np.testing.assert_allclose(np.abs(got @ R[:, 2]), 1.0, atol=0.01)
+    with pytest.raises(InputError):
+        face_normals(np.ones((5, 2)))

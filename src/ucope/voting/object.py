@@ -8,10 +8,9 @@ from typing import Any
 import numpy as np
 
 from ..geometry.kinematics import joint_state_from_poses
-from ..geometry.normals import estimate_normals
 from ..priors import CategoryPriors
 from ..vocab import JointType
-from .faces import FACE_NORMAL_K, align_parts_to_faces
+from .faces import align_parts_to_faces, face_normals
 from .joints import vote_joints
 from .kinematic import (
     ShapeIndex,
@@ -48,8 +47,8 @@ def vote_object(
 
     With ``align_faces`` the voted rotations are first turned so that each part's box axes meet the
     normals of its points' flat faces (:func:`ucope.voting.faces.align_parts_to_faces`: the points of a
-    part are those its pairs were drawn from, their normals estimated among ``points`` with
-    :data:`ucope.voting.faces.FACE_NORMAL_K` neighbours, not taken from ``normals``; a part joined to its
+    part are those its pairs were drawn from, their normals estimated among ``points`` by
+    :func:`ucope.voting.faces.face_normals`, not taken from ``normals``; a part joined to its
     parent by a prismatic joint takes its parent's turn; parts symmetric about y are left alone).
 
     With ``resolve_flips`` (default) a rigid object (``K = 1``) whose voted rotation is a half turn away
@@ -93,8 +92,7 @@ def vote_object(
     idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx).reshape(K, -1)
     part_points = [np.unique(i) for i in idx]
     if align_faces:
-        pts_np = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64).reshape(-1, 3)
-        nrm = estimate_normals(pts_np, k=FACE_NORMAL_K, viewpoint=None)  # on these points: see FACE_NORMAL_K
+        nrm = face_normals(np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64).reshape(-1, 3))
         follow = [(j.child, j.parent) for j in priors.joints if j.type == JointType.PRISMATIC]
         out["cam_from_part"], out["face_aligned"] = align_parts_to_faces(
             out["cam_from_part"], nrm, part_points, [p.symmetry for p in priors.parts], follow
