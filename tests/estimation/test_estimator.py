@@ -429,40 +429,18 @@ def test_cli_smoothing_and_revolution_flags_reach_the_estimator(tiny_run):
 def test_grown_boxes_hold_their_points_and_keep_the_rotations(est, sample, tiny_run, tmp_path):
     """``grow_boxes``: the same estimate with every box at least as large (rotations and scores kept); the
     model's JSON default is taken by ``load``; the CLI flag reaches it."""
-    import argparse
-    import shutil
-
-    from ucope.cli.outputs import estimator_options
-
     off = Estimator(est.model, num_pairs=2000).predict_sample(sample)
     on = Estimator(est.model, num_pairs=2000, grow_boxes=True).predict_sample(sample)
     for a, b in zip(off.parts, on.parts, strict=True):
         np.testing.assert_allclose(b.cam_from_part[:3, :3], a.cam_from_part[:3, :3])
         assert np.all(b.size_m >= a.size_m - 1e-12) and b.score == a.score
     np.testing.assert_array_equal(on.part_labels, off.part_labels)
-    run = tmp_path / "run"
-    shutil.copytree(tiny_run, run)
-    meta = json.loads((run / "model.json").read_text())
-    meta.setdefault("info", {})["defaults"] = {"grow_boxes": True}
-    (run / "model.json").write_text(json.dumps(meta))
-    assert Estimator.load(run).grow_boxes and not Estimator.load(run, grow_boxes=False).grow_boxes
-    assert not Estimator.load(tiny_run).grow_boxes
-    base = dict(
-        pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
-        remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
-    )  # fmt: skip
-    assert estimator_options(argparse.Namespace(**base))["grow_boxes"] is None
-    assert not Estimator.load(run, **estimator_options(argparse.Namespace(**base, grow_boxes=False))).grow_boxes
+    _default_and_flag(tiny_run, tmp_path, "grow_boxes")
 
 
 def test_aligned_faces_keep_translations_and_reach_the_settings(est, sample, tiny_run, tmp_path):
     """``align_faces``: the sizes and labels are kept (without growth), rotations stay rotations; the
-    model's JSON default is taken by ``load``; the CLI flag reaches it; eval records it."""
-    import argparse
-    import shutil
-
-    from ucope.cli.outputs import estimator_options
-
+    model's JSON default is taken by ``load``; the CLI flag reaches it."""
     off = Estimator(est.model, num_pairs=2000, grow_boxes=False).predict_sample(sample)
     on = Estimator(est.model, num_pairs=2000, grow_boxes=False, align_faces=True).predict_sample(sample)
     np.testing.assert_array_equal(on.part_labels, off.part_labels)
@@ -474,16 +452,28 @@ def test_aligned_faces_keep_translations_and_reach_the_settings(est, sample, tin
     refined = Estimator(est.model, num_pairs=2000, refine=True, align_faces=True).predict_sample(sample)
     hinge = refined.parts[0].cam_from_part[:3, :3] @ est.priors.joint_axes[0]
     assert abs(float(refined.joints[0].axis @ hinge)) == pytest.approx(1.0, abs=1e-6)
+    _default_and_flag(tiny_run, tmp_path, "align_faces")
+
+
+def _default_and_flag(tiny_run, tmp_path, key: str) -> None:
+    """The model JSON's ``info.defaults[key]`` is taken by ``load`` (and overridden by the keyword); a
+    model without it has it off; the command-line flag (``None`` when not given) reaches ``load``."""
+    import argparse
+    import shutil
+
+    from ucope.cli.outputs import estimator_options
+
     run = tmp_path / "run"
     shutil.copytree(tiny_run, run)
     meta = json.loads((run / "model.json").read_text())
-    meta.setdefault("info", {})["defaults"] = {"align_faces": True}
+    meta.setdefault("info", {})["defaults"] = {key: True}
     (run / "model.json").write_text(json.dumps(meta))
-    assert Estimator.load(run).align_faces and not Estimator.load(run, align_faces=False).align_faces
-    assert not Estimator.load(tiny_run).align_faces
+    assert getattr(Estimator.load(run), key) and not getattr(Estimator.load(run, **{key: False}), key)
+    assert not getattr(Estimator.load(tiny_run), key)
     base = dict(
         pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
         remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
     )  # fmt: skip
-    assert estimator_options(argparse.Namespace(**base))["align_faces"] is None
-    assert Estimator.load(run, **estimator_options(argparse.Namespace(**base, align_faces=True))).align_faces
+    assert estimator_options(argparse.Namespace(**base))[key] is None
+    assert not getattr(Estimator.load(run, **estimator_options(argparse.Namespace(**base, **{key: False}))), key)
+    assert getattr(Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, **{key: True}))), key)
