@@ -14,7 +14,7 @@ angles, not the turn about its normal) stays where voting put it, while what the
 them over the rounds.
 
 Normals that match no axis (a lens barrel's, a handle's, outliers, the rounded corners of a body)
-drop out; a cylinder's normals that do match spread evenly around it and pull it nowhere. The rotation
+drop out; a cylinder's normals that do match spread around it and mostly cancel. The rotation
 turns about the box centre; the centre and the size are kept. Parts symmetric about y are left alone
 (their x and z axes are arbitrary), and so are parts with fewer than ``min_points`` matched normals.
 
@@ -41,6 +41,7 @@ __all__ = [
     "FACE_ITERATIONS",
     "FACE_PRIOR_WEIGHT",
     "FACE_NORMAL_K",
+    "FACE_SPARSE_MIN_K",
     "FACE_MIN_POINTS",
 ]
 
