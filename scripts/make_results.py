@@ -796,7 +796,8 @@ def main() -> int:
             "Success = every part < 10 deg and < 10 % of its ground-truth box diagonal, per view. *test*: the test split above "
             "(unseen instances of the training families and sizes); *ood*: `ucope generate --split ood` (shape families held "
             "out of training, sizes scaled by log-uniform 0.5-2x, [conventions.md](conventions.md)), 100 views, evaluated "
-            "with the model's shipped defaults (rescaling, plane removal, refinement, box growth; its stored weights, half "
+            "with the model's shipped defaults (rescaling, plane removal, refinement, box growth, face alignment; its stored "
+            "weights, half "
             "precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "
             "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error per part.",

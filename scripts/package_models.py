@@ -100,12 +100,10 @@ def set_defaults(
         info.setdefault("defaults", {}).update(
             refine=refine_default(json.loads(off.read_text()), json.loads(on.read_text())), decided_from=[off.name, on.name]
         )
-    if remove_plane is not None:
-        info.setdefault("defaults", {})["remove_plane"] = cat in remove_plane
-    if grow_boxes is not None:
-        info.setdefault("defaults", {})["grow_boxes"] = cat in grow_boxes
-    if align_faces is not None:
-        info.setdefault("defaults", {})["align_faces"] = cat in align_faces
+    lists = dict(remove_plane=remove_plane, grow_boxes=grow_boxes, align_faces=align_faces)
+    for key, cats in lists.items():
+        if cats is not None:
+            info.setdefault("defaults", {})[key] = cat in cats
 
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:

@@ -346,22 +346,16 @@ class Estimator:
         net, meta = load_model(path)
         info = meta.get("info") or {}
         defaults = info.get("defaults") or {}
-        if refine is None:
-            refine = bool(defaults.get("refine", False))
-        if remove_plane is None:
-            remove_plane = bool(defaults.get("remove_plane", False))
-        if grow_boxes is None:
-            grow_boxes = bool(defaults.get("grow_boxes", False))
-        if align_faces is None:
-            align_faces = bool(defaults.get("align_faces", False))
+        switches = dict(refine=refine, remove_plane=remove_plane, grow_boxes=grow_boxes, align_faces=align_faces)
+        for key, value in switches.items():  # None: the model's own default (off where it has none)
+            switches[key] = bool(defaults.get(key, False)) if value is None else value
         if isinstance(denoise_above_m, str):
             if denoise_above_m != "model":
                 raise InputError(f'denoise_above_m must be metres, None or "model", got {denoise_above_m!r}')
             denoise_above_m = defaults.get("denoise_above_m")
         if "calibration" not in kwargs and info.get("calibration"):
             kwargs["calibration"] = Calibration.from_dict(info["calibration"])
-        kwargs.update(refine=refine, remove_plane=remove_plane, denoise_above_m=denoise_above_m, grow_boxes=grow_boxes)
-        kwargs.update(align_faces=align_faces)
+        kwargs.update(switches, denoise_above_m=denoise_above_m)
         return cls(net, name=str(Path(model)), **kwargs)
 
     @property

@@ -89,8 +89,9 @@ def vote_object(
     out["shape_turned"] = np.zeros(K, dtype=bool)
     out["revolved"] = np.zeros(K, dtype=bool)
     out["face_aligned"] = np.zeros(K, dtype=bool)
-    idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx).reshape(K, -1)
-    part_points = [np.unique(i) for i in idx]
+    if align_faces or priors.num_joints == 0:  # the points each part's pairs were drawn from
+        idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx).reshape(K, -1)
+        part_points = [np.unique(i) for i in idx]
     if align_faces:
         nrm = face_normals(np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64).reshape(-1, 3))
         follow = [(j.child, j.parent) for j in priors.joints if j.type == JointType.PRISMATIC]
