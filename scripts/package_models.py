@@ -91,16 +91,17 @@ def set_defaults(
     remove_plane: list[str] | None = None,
     grow_boxes: list[str] | None = None,
     align_faces: list[str] | None = None,
+    wide_scale_search: list[str] | None = None,
 ) -> None:
     """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
-    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes`` and ``align_faces`` likewise when those lists
-    are given; the other defaults (``denoise_above_m``) are kept."""
+    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes``, ``align_faces`` and ``wide_scale_search``
+    likewise when those lists are given; the other defaults (``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
         info.setdefault("defaults", {}).update(
             refine=refine_default(json.loads(off.read_text()), json.loads(on.read_text())), decided_from=[off.name, on.name]
         )
-    lists = dict(remove_plane=remove_plane, grow_boxes=grow_boxes, align_faces=align_faces)
+    lists = dict(remove_plane=remove_plane, grow_boxes=grow_boxes, align_faces=align_faces, wide_scale_search=wide_scale_search)
     for key, cats in lists.items():
         if cats is not None:
             info.setdefault("defaults", {})[key] = cat in cats
@@ -108,7 +109,8 @@ def set_defaults(
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``
-    (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes`` / ``align_faces``)."""
+    (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
+    ``wide_scale_search``)."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
@@ -125,7 +127,8 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
 
 
 def set_run_defaults(runs: Path, reports: Path, cats: list[str], **lists) -> int:
-    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes`` / ``align_faces``, when given) into
+    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
+    ``wide_scale_search``, when given) into
     ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
@@ -179,8 +182,21 @@ def main() -> int:
         help="the categories whose models align their part rotations to the normals of flat faces by default "
         "(info.defaults.align_faces; docs/results.md has the measurements); others get it off; omitted: left as it is",
     )
+    ap.add_argument(
+        "--wide-scale-search",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help="the categories whose models' scale search also tries 0.8x and 1.25x the typical size by default "
+        "(info.defaults.wide_scale_search; docs/results.md has the measurements); others get it off; omitted: left as it is",
+    )
     args = ap.parse_args()
-    lists = dict(remove_plane=args.remove_plane, grow_boxes=args.grow_boxes, align_faces=args.align_faces)
+    lists = dict(
+        remove_plane=args.remove_plane,
+        grow_boxes=args.grow_boxes,
+        align_faces=args.align_faces,
+        wide_scale_search=args.wide_scale_search,
+    )
     dest = pretrained_dir()
     if args.figures_only:
         return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))], **lists)

@@ -20,9 +20,18 @@ def test_defaults_from_reports_and_lists_keep_the_others(tmp_path):
     (tmp_path / "drawer_norefine.json").write_text(json.dumps(_report([10.0, 12.0], 0.2, [0.6, 0.5])))
     (tmp_path / "drawer_refine.json").write_text(json.dumps(_report([9.0, 10.0], 0.3, [0.6, 0.5])))
     info = {"defaults": {"denoise_above_m": 0.002}}
-    set_defaults(info, tmp_path, "drawer", remove_plane=["mug"], grow_boxes=["drawer", "laptop"], align_faces=["drawer"])
+    set_defaults(
+        info,
+        tmp_path,
+        "drawer",
+        remove_plane=["mug"],
+        grow_boxes=["drawer", "laptop"],
+        align_faces=["drawer"],
+        wide_scale_search=["mug"],
+    )
     d = info["defaults"]
     assert d["refine"] is True and d["remove_plane"] is False and d["grow_boxes"] is True and d["align_faces"] is True
+    assert d["wide_scale_search"] is False
     assert d["denoise_above_m"] == 0.002 and d["decided_from"] == ["drawer_norefine.json", "drawer_refine.json"]
     set_defaults(info, tmp_path, "drawer", grow_boxes=[])  # an empty list turns it off; omitted lists leave it
     assert info["defaults"]["grow_boxes"] is False and info["defaults"]["remove_plane"] is False

@@ -61,6 +61,11 @@ def test_prismatic_zero_offsets_and_limits_widened_to_the_states_seen():
     assert all(j.axis_in_parent == (0.0, 0.0, 1.0) for j in pri.joints)
     top = max(float(np.max(s["joint_state"])) for s in samples)
     assert max(j.limits[1] for j in pri.joints) >= top - 1e-12  # instance 0's limits widened by what was seen
+    # drawers are centred left-right in their cabinets: no spread along x; the slots and states spread y and z
+    for j in pri.joints:
+        assert j.child_in_parent_spread[0] < 1e-9 and j.child_in_parent_spread[2] > 0.01
+    back = CategoryPriors.from_dict(pri.to_dict())
+    assert [j.child_in_parent_spread for j in back.joints] == [j.child_in_parent_spread for j in pri.joints]
     rigid = measure_priors(_samples("mug", 3), "mug", _structure("mug"))
     assert rigid.joints == () and rigid.num_parts == 1
 

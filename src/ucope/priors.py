@@ -142,6 +142,12 @@ class JointPrior:
             frame divided by the parent's box diagonal, and of the parent's centre in the child's frame
             divided by the child's diagonal (over the category's instances and joint range): where each
             part's neighbour sits, used to undo half-turn flips (:func:`ucope.voting.kinematic.resolve_joint_flips`).
+        child_in_parent_spread: prismatic joints: ``(3,)`` the standard deviation of ``child_in_parent``
+            over the training views (same units); where it is below
+            :data:`ucope.voting.kinematic.PLACE_MAX_SPREAD` on a parent axis across the joint's axis (a
+            drawer always centred left-right in its cabinet), the child is placed at the mean there
+            (:func:`ucope.voting.kinematic.place_prismatic_children`). ``None`` for revolute joints or
+            when not measured.
         pivot_in_parent, pivot_in_child: revolute joints: ``(3,)`` the foot of the perpendicular from the
             parent's box centre to the joint axis, in the parent's and in the child's frame, each divided
             elementwise by that part's box extents (mean over the training views, :func:`pivot_offsets`);
@@ -157,6 +163,7 @@ class JointPrior:
     zero_offset_m: float = 0.0
     child_in_parent: tuple[float, float, float] = (0.0, 0.0, 0.0)
     parent_in_child: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    child_in_parent_spread: tuple[float, float, float] | None = None
     pivot_in_parent: tuple[float, float, float] | None = None
     pivot_in_child: tuple[float, float, float] | None = None
 
@@ -183,6 +190,11 @@ class JointPrior:
             if v.shape != (3,):
                 raise InputError(f"joint {self.parent}->{self.child}: {name} needs 3 values")
             object.__setattr__(self, name, tuple(float(x) for x in v))
+        if self.child_in_parent_spread is not None:
+            v = _finite(self.child_in_parent_spread, "child_in_parent_spread").reshape(-1)
+            if v.shape != (3,) or np.any(v < 0):
+                raise InputError(f"joint {self.parent}->{self.child}: child_in_parent_spread needs 3 values >= 0")
+            object.__setattr__(self, "child_in_parent_spread", tuple(float(x) for x in v))
         if (self.pivot_in_parent is None) != (self.pivot_in_child is None):
             raise InputError(f"joint {self.parent}->{self.child}: pivot_in_parent and pivot_in_child go together")
         for name in ("pivot_in_parent", "pivot_in_child"):
@@ -207,6 +219,7 @@ class JointPrior:
             "zero_offset_m": self.zero_offset_m,
             "child_in_parent": list(self.child_in_parent),
             "parent_in_child": list(self.parent_in_child),
+            "child_in_parent_spread": None if self.child_in_parent_spread is None else list(self.child_in_parent_spread),
             "pivot_in_parent": None if self.pivot_in_parent is None else list(self.pivot_in_parent),
             "pivot_in_child": None if self.pivot_in_child is None else list(self.pivot_in_child),
         }
@@ -358,6 +371,7 @@ class CategoryPriors:
                     zero_offset_m=j.get("zero_offset_m", 0.0),
                     child_in_parent=tuple(j["child_in_parent"]),
                     parent_in_child=tuple(j["parent_in_child"]),
+                    child_in_parent_spread=_tuple_or_none(j.get("child_in_parent_spread")),
                     pivot_in_parent=_tuple_or_none(j.get("pivot_in_parent")),
                     pivot_in_child=_tuple_or_none(j.get("pivot_in_child")),
                 )
@@ -535,9 +549,9 @@ def measure_priors(
 
     The statistics: vote range 1.1 x the largest half box diagonal, mean size = geometric mean, input
     scale = mean cloud radius, the range of :func:`cloud_radius` and its 2nd-98th percentiles, prismatic
-    zero offsets and part placements at the true poses, joint limits = the declared limits widened to
-    every state seen, revolute pivots in the parts' unit boxes (:func:`pivot_offsets`) and the upright
-    axes (:func:`upright_statistics`).
+    zero offsets and part placements at the true poses (with their spread for prismatic joints), joint
+    limits = the declared limits widened to every state seen, revolute pivots in the parts' unit boxes
+    (:func:`pivot_offsets`) and the upright axes (:func:`upright_statistics`).
     Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
@@ -583,6 +597,8 @@ def measure_priors(
                 zero = prismatic_zero_offset(T[:, p], T[:, c], U[:, j], size[:, p], size[:, c], Q[:, j])
             cip, pic = placement_offsets(T, size, p, c)
             piv: dict[str, Any] = {}
+            if jd["type"] == JointType.PRISMATIC:
+                piv["child_in_parent_spread"] = tuple(cip.std(0))
             if jd["type"] == JointType.REVOLUTE and np.all(np.isfinite(P[:, j])):
                 pp, pc = pivot_offsets(T, size, P[:, j], jd["axis_in_parent"], p, c)
                 piv = dict(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))

@@ -455,6 +455,55 @@ def test_aligned_faces_keep_translations_and_reach_the_settings(est, sample, tin
     _default_and_flag(tiny_run, tmp_path, "align_faces")
 
 
+def test_the_wide_scale_search_default_and_flag_reach_the_estimator(tiny_run, tmp_path):
+    """``wide_scale_search``: the model's JSON default is taken by ``load``; the CLI flag reaches it (its
+    effect is measured in tests/estimation/test_scale_search.py)."""
+    _default_and_flag(tiny_run, tmp_path, "wide_scale_search")
+
+
+def test_placing_children_acts_only_where_the_priors_hold_the_spread(tiny_run):
+    """``place_children`` (on by default): a model whose priors hold no placement spread (the tiny laptop
+    run: revolute joints) gives the same estimate with it on and off."""
+    est = Estimator.load(tiny_run, num_pairs=500)
+    assert est.place_children and all(jp.child_in_parent_spread is None for jp in est.priors.joints)
+    s = make_sample(GenerateConfig(category=est.category, split="test", num=1, seed=5, views_per_instance=1), 0)
+    on = est.predict(s["points"])
+    off = Estimator.load(tiny_run, num_pairs=500, place_children=False).predict(s["points"])
+    for a, b in zip(on.parts, off.parts, strict=True):
+        np.testing.assert_array_equal(a.cam_from_part, b.cam_from_part)
+
+
+def test_the_place_children_flag_reaches_the_estimator(tiny_run):
+    import argparse
+
+    from ucope.cli.outputs import estimator_options
+
+    base = dict(
+        pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
+        remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
+    )  # fmt: skip
+    assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).place_children
+    assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_place_children=True))).place_children
+
+
+def test_the_shipped_drawer_puts_its_drawers_in_the_middle_of_the_cabinet():
+    """The shipped drawer's priors hold the spread (0 left-right): with ``place_children`` every drawer's
+    centre is on the cabinet's middle plane, x = 0 in the cabinet's frame; without it, the voted ones are
+    not; the rest of the estimate is the same."""
+    s = make_sample(GenerateConfig(category="drawer", split="test", num=1, seed=5, views_per_instance=1), 0)
+    on = Estimator.load("drawer", num_pairs=2000).predict(s["points"])
+    off = Estimator.load("drawer", num_pairs=2000, place_children=False).predict(s["points"])
+    lateral = {}
+    for name, res in (("on", on), ("off", off)):
+        cab = res.parts[0].cam_from_part
+        lateral[name] = [float(cab[:3, 0] @ (p.cam_from_part[:3, 3] - cab[:3, 3])) for p in res.parts[1:]]
+    assert np.allclose(lateral["on"], 0.0, atol=1e-9) and not np.allclose(lateral["off"], 0.0, atol=1e-4)
+    for a, b in zip(on.parts, off.parts, strict=True):
+        np.testing.assert_array_equal(a.cam_from_part[:3, :3], b.cam_from_part[:3, :3])
+        np.testing.assert_array_equal(a.size_m, b.size_m)
+    np.testing.assert_allclose([j.state for j in on.joints], [j.state for j in off.joints], atol=1e-9)
+
+
 def _default_and_flag(tiny_run, tmp_path, key: str) -> None:
     """The model JSON's ``info.defaults[key]`` is taken by ``load`` (and overridden by the keyword); a
     model without it has it off; the command-line flag (``None`` when not given) reaches ``load``."""

@@ -316,3 +316,67 @@ def test_a_part_turning_about_its_upright_axis_keeps_the_state_nearest_its_vote(
     q = revolute_angle(fixed[0, :3, :3].T @ fixed[jp.child, :3, :3], jp.axis)
     step = (jp.limits[1] - jp.limits[0]) / 180
     assert abs(q - np.clip(q0, *jp.limits)) <= step
+
+
+def _cabinet_priors(spread=(0.0, 0.05, 0.1), axis=(0, 0, 1)):
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+
+    parts = (PartPrior("cabinet", "none", 0.6, (0.6, 0.8, 0.5)), PartPrior("drawer", "none", 0.4, (0.55, 0.2, 0.45)))
+    joint = JointPrior("prismatic", 0, 1, axis, limits=(0.0, 0.3), child_in_parent=(0.0, 0.2, 0.1), child_in_parent_spread=spread)
+    return CategoryPriors("toy", parts, (joint,), norm_scale_m=0.5)
+
+
+def _placed_reference(T, S, pri, max_spread):
+    """Plain per-axis reference: the child's centre in the parent frame, each parent axis across the joint
+    axis with a small spread set to the training mean (in parent diagonals), back to the camera frame."""
+    out = T.copy()
+    for jp in pri.joints:
+        Rp, tp = T[jp.parent, :3, :3], T[jp.parent, :3, 3]
+        local = [float(Rp[:, i] @ (T[jp.child, :3, 3] - tp)) for i in range(3)]
+        for i in range(3):
+            if abs(jp.axis_in_parent[i]) < 1e-6 and jp.child_in_parent_spread[i] < max_spread:
+                local[i] = jp.child_in_parent[i] * float(np.sqrt(sum(x * x for x in S[jp.parent])))
+        out[jp.child, :3, 3] = tp + sum(local[i] * Rp[:, i] for i in range(3))
+    return out
+
+
+def test_a_prismatic_child_is_placed_where_its_parent_always_held_it_against_a_plain_reference():
+    from ucope.geometry.kinematics import joint_state_from_poses
+    from ucope.voting import place_prismatic_children
+
+    pri = _cabinet_priors()
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        T = np.tile(np.eye(4), (2, 1, 1))
+        R = rotation_about_axis(rng.normal(size=3), rng.uniform(0, np.pi))
+        T[:, :3, :3] = R
+        T[0, :3, 3] = rng.normal(size=3)
+        T[1, :3, 3] = T[0, :3, 3] + R @ np.array([0.07, 0.15, 0.2])  # 7 cm off to the side
+        S = np.array([[0.6, 0.8, 0.5], [0.5, 0.2, 0.45]])
+        got, moved = place_prismatic_children(T, S, pri)
+        np.testing.assert_allclose(got, _placed_reference(T, S, pri, 0.01), atol=1e-12)
+        local = R.T @ (got[1, :3, 3] - got[0, :3, 3])
+        np.testing.assert_allclose(local, [0.0, 0.15, 0.2], atol=1e-12)  # only x, whose spread is 0, moved
+        assert moved[0] == pytest.approx(0.07) and np.array_equal(got[1, :3, :3], T[1, :3, :3])
+        u = R @ np.array([0.0, 0.0, 1.0])
+        q = [joint_state_from_poses(X[0], X[1], u, "prismatic", S[0], S[1]) for X in (T, got)]
+        assert q[1] == pytest.approx(q[0])  # the state, along the axis, is kept
+    # a wide spread, the joint's own axis, a revolute joint or priors without the spread: nothing moves
+    for other in (_cabinet_priors(spread=(0.02, 0.05, 0.1)), _cabinet_priors(axis=(1, 0, 0)), _cabinet_priors(spread=None)):
+        same, moved = place_prismatic_children(T, S, other)
+        assert np.array_equal(same, T) and not moved.any()
+
+
+def test_placing_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.priors import JointPrior
+    from ucope.voting import place_prismatic_children
+
+    pri = _cabinet_priors()
+    with pytest.raises(InputError, match="cam_from_part"):
+        place_prismatic_children(np.eye(4)[None], np.ones((1, 3)), pri)
+    with pytest.raises(InputError, match="max_spread"):
+        place_prismatic_children(np.tile(np.eye(4), (2, 1, 1)), np.ones((2, 3)), pri, max_spread=-1.0)
+    with pytest.raises(InputError, match="child_in_parent_spread"):
+        JointPrior("prismatic", 0, 1, (0, 0, 1), child_in_parent_spread=(0.0, -0.1, 0.0))
+    assert JointPrior.__dataclass_fields__["child_in_parent_spread"].default is None

@@ -538,6 +538,19 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "model's typical size, keeping the higher-scored estimate; docs/results.md)",
     )
     p.add_argument(
+        "--wide-scale-search",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="the scale search also tries the cloud normalised to 0.8x and 1.25x the model's typical size (default: "
+        "the model's own; on for the shipped models where it measured better, docs/results.md)",
+    )
+    p.add_argument(
+        "--no-place-children",
+        action="store_true",
+        help="keep a drawer where voting put it (default: centred in its cabinet where the model's training views "
+        "always had it so; docs/voting.md)",
+    )
+    p.add_argument(
         "--no-rescale",
         action="store_true",
         help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",

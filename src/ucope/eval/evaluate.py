@@ -359,6 +359,8 @@ def evaluate(
             "vote_caps": getattr(getattr(estimator, "options", None), "capped", True),
             "recrop": getattr(estimator, "recrop", False),
             "scale_search": getattr(estimator, "scale_search", False),
+            "wide_scale_search": getattr(estimator, "wide_scale_search", False),
+            "place_children": getattr(estimator, "place_children", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "grow_boxes": getattr(estimator, "grow_boxes", False),

@@ -16,6 +16,7 @@ measured accuracy.
 * :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
 * :func:`resolve_joint_flips`, :func:`resolve_shape_flips` (:class:`ShapeIndex`), :func:`kinematic_refine`.
 * :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
+* :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
 * :func:`align_to_faces`, :func:`align_parts_to_faces`: rotations turned so that box axes meet the normals of flat faces.
@@ -33,6 +34,7 @@ from .kinematic import (
     ShapeIndex,
     carry_upright,
     kinematic_refine,
+    place_prismatic_children,
     resolve_joint_flips,
     resolve_shape_flips,
     upright_angles_deg,
@@ -66,6 +68,7 @@ __all__ = [
     "resolve_shape_flips",
     "carry_upright",
     "upright_angles_deg",
+    "place_prismatic_children",
     "vote_object",
     "part_fit",
     "regressed_object",

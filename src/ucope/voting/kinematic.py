@@ -56,6 +56,8 @@ __all__ = [
     "resolve_shape_flips",
     "ShapeIndex",
     "clamp_joint_states",
+    "place_prismatic_children",
+    "PLACE_MAX_SPREAD",
     "carry_upright",
     "upright_angles_deg",
     "UPRIGHT_MARGIN_DEG",
@@ -64,6 +66,12 @@ __all__ = [
 UPRIGHT_MARGIN_DEG = 10.0
 """How far beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt
 before :func:`carry_upright` re-places the part from a neighbour."""
+
+PLACE_MAX_SPREAD = 0.01
+"""A prismatic child is placed at its training mean along a parent axis across the joint's axis
+(:func:`place_prismatic_children`) where its placement there varied by less than this (standard
+deviation, in parent box diagonals: ``JointPrior.child_in_parent_spread``) over the training views: 1 %
+of a 1 m cabinet is 1 cm."""
 
 _CARRY_STEPS = 181
 """Joint states tried per revolute joint by :func:`carry_upright` (evenly over the limits)."""
@@ -390,6 +398,54 @@ def clamp_joint_states(
         q[j] += delta
         clamped[j] = True
     return T, q, clamped
+
+
+def place_prismatic_children(
+    cam_from_part: np.ndarray, size_m: np.ndarray, priors: CategoryPriors, max_spread: float = PLACE_MAX_SPREAD
+) -> tuple[np.ndarray, np.ndarray]:
+    """Put each prismatic child where the training views always had it across its joint's axis.
+
+    A drawer slides along its cabinet's z axis and sits in the middle of the cabinet left-right in every
+    training view (``JointPrior.child_in_parent_spread`` 0 along x), while its voted centre strays by
+    centimetres (a drawer is seen by its front alone, its box reaches deep into the cabinet). For each
+    prismatic joint (parents first) and each parent axis ``e_i`` across the joint's axis
+    (``|e_i . a| < 1e-6``) whose spread is below ``max_spread``, the child's centre is set, along ``R_p e_i``,
+    to the training mean ``child_in_parent[i] x |size_p|``; the other coordinates, the rotation and the
+    size are kept. Joint states (measured along the axis) do not change. Joints without a measured spread
+    (revolute joints, priors measured before it) are left alone.
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents.
+        priors: the category's priors.
+        max_spread: the largest spread (standard deviation in parent box diagonals) that is placed.
+
+    Returns:
+        ``(cam_from_part, moved)``: a copy with the children moved, and ``(J,)`` the distance (metres) each
+        joint's child moved.
+
+    Raises:
+        InputError: shapes that do not match the priors' parts, or a negative ``max_spread``.
+    """
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    K = len(priors.parts)
+    if T.shape != (K, 4, 4) or S.shape != (K, 3):
+        raise InputError(f"cam_from_part must be ({K}, 4, 4) and size_m ({K}, 3), got {T.shape} and {S.shape}")
+    if not max_spread >= 0.0:
+        raise InputError(f"max_spread must be >= 0, got {max_spread!r}")
+    moved = np.zeros(len(priors.joints))
+    for j, jp in enumerate(priors.joints):
+        if jp.type != JointType.PRISMATIC or jp.child_in_parent_spread is None:
+            continue
+        fixed = (np.abs(jp.axis) < 1e-6) & (np.asarray(jp.child_in_parent_spread) < max_spread)
+        if not fixed.any():
+            continue
+        R, t = T[jp.parent, :3, :3], T[jp.parent, :3, 3]
+        local = R.T @ (T[jp.child, :3, 3] - t)
+        target = np.where(fixed, np.asarray(jp.child_in_parent) * np.linalg.norm(S[jp.parent]), local)
+        T[jp.child, :3, 3] = t + R @ target
+        moved[j] = float(np.linalg.norm(target - local))
+    return T, moved
 
 
 def upright_angles_deg(cam_from_part: np.ndarray, priors: CategoryPriors) -> np.ndarray:
