@@ -19,6 +19,7 @@ import torch
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.estimation import Estimator
+from ucope.fileio import atomic_write_text
 
 STAGES = ("preprocess", "encoder", "pair_encoder", "voting", "total")
 
@@ -70,7 +71,8 @@ def main() -> None:
                 + " ms (median)",
                 flush=True,
             )
-    args.out.write_text(
+    atomic_write_text(
+        args.out,
         json.dumps(
             {
                 "threads": args.threads,
@@ -81,7 +83,7 @@ def main() -> None:
             },
             indent=2,
         )
-        + "\n"
+        + "\n",
     )
     print(f"wrote {args.out}")
 
