@@ -796,8 +796,8 @@ def main() -> int:
             "Success = every part < 10 deg and < 10 % of its ground-truth box diagonal, per view. *test*: the test split above "
             "(unseen instances of the training families and sizes); *ood*: `ucope generate --split ood` (shape families held "
             "out of training, sizes scaled by log-uniform 0.5-2x, [conventions.md](conventions.md)), 100 views, evaluated "
-            "with the model's shipped defaults (rescaling, plane removal, refinement, box growth, face alignment; its stored "
-            "weights, half "
+            "with the model's shipped defaults (rescaling, plane removal, refinement, box growth, face alignment, "
+            "the three-size scale search, the drawer placement; its stored weights, half "
             "precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "
             "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error per part.",
@@ -825,6 +825,9 @@ def main() -> int:
         b = json.loads(bs.read_text())
         st = b["settings"]
         facs = [f"{f:g}" for f in st["factors"]]
+        wide = [
+            n for n, _ in in_category_order(b["models"]) if ((load(R, n) or {}).get("settings") or {}).get("wide_scale_search")
+        ]
         out += [
             "## Objects of other sizes",
             "",
@@ -835,7 +838,8 @@ def main() -> int:
             "volume), first as the model sees the cloud (`--no-rescale`), then with the estimator's defaults: "
             "the rescaling into the training sizes (`Estimator(rescale=True)`) and, where the first estimate's "
             "score is below 0.9, the scale search (a second estimate on the cloud normalised to the model's "
-            "typical radii, the higher-scored one standing; `--no-scale-search`).",
+            "typical radii, the higher-scored one standing; `--no-scale-search`; at 0.8, 1 and 1.25x those radii for "
+            f"the models whose default `wide_scale_search` is on: {', '.join(wide) or 'none'}).",
             "",
             "| model | " + " | ".join(f"x{f} as is" for f in facs) + " | " + " | ".join(f"x{f} rescaled" for f in facs) + " |",
             "|---|" + "---|" * (2 * len(facs)),

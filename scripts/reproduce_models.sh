@@ -21,7 +21,8 @@
 # (scripts/calibrate_scores.py, 300 validation views) of the run with its defaults: PLANE_CATS leave a
 # support plane out, DENOISE_CATS smooth a cloud noisier than their validation views, GROW_CATS grow their
 # boxes to hold their points (ucope.voting.grow_to_points), ALIGN_CATS align their part rotations to the
-# normals of their flat faces (ucope.voting.align_parts_to_faces).
+# normals of their flat faces (ucope.voting.align_parts_to_faces), WIDE_CATS search three scales where the
+# first estimate scores low (Estimator(wide_scale_search=True)).
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
 # ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
@@ -46,6 +47,7 @@ PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their validation views (set_denoise_default.py)
 GROW_CATS=${GROW_CATS-"dishwasher drawer laptop_rigid camera"}  # boxes grown to hold their points (docs/results.md)
 ALIGN_CATS=${ALIGN_CATS-"camera dishwasher drawer"}  # rotations aligned to the faces (docs/results.md)
+WIDE_CATS=${WIDE_CATS-"eyeglasses laptop camera bottle mug"}  # the scale search at 0.8, 1 and 1.25x the typical size (docs/results.md)
 OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
@@ -185,7 +187,7 @@ calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and sc
   esac
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS
   if [[ " $DENOISE_CATS " == *" $c "* ]]; then
     "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
   fi
@@ -280,7 +282,7 @@ if [ "$PACKAGE" = 1 ]; then
   # stored weights, float16 where the check allowed it).
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS
   for c in $CATS; do
     rm -f "$WORK/reports/$c.json"
     "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet
