@@ -596,12 +596,12 @@ def measure_priors(
             if jd["type"] == JointType.PRISMATIC:
                 zero = prismatic_zero_offset(T[:, p], T[:, c], U[:, j], size[:, p], size[:, c], Q[:, j])
             cip, pic = placement_offsets(T, size, p, c)
-            piv: dict[str, Any] = {}
+            extra: dict[str, Any] = {}
             if jd["type"] == JointType.PRISMATIC:
-                piv["child_in_parent_spread"] = tuple(cip.std(0))
+                extra["child_in_parent_spread"] = tuple(cip.std(0))
             if jd["type"] == JointType.REVOLUTE and np.all(np.isfinite(P[:, j])):
                 pp, pc = pivot_offsets(T, size, P[:, j], jd["axis_in_parent"], p, c)
-                piv = dict(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))
+                extra = dict(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))
             lo, hi = jd["limits"]
             lo = None if lo is None else min(lo, float(Q[:, j].min()))
             hi = None if hi is None else max(hi, float(Q[:, j].max()))
@@ -615,7 +615,7 @@ def measure_priors(
                     zero_offset_m=zero,
                     child_in_parent=tuple(cip.mean(0)),
                     parent_in_child=tuple(pic.mean(0)),
-                    **piv,
+                    **extra,
                 )
             )
     t_idx = np.unique(np.linspace(0, n - 1, min(n, int(template_samples))).round().astype(np.int64))

@@ -411,8 +411,9 @@ def place_prismatic_children(
     prismatic joint (parents first) and each parent axis ``e_i`` across the joint's axis
     (``|e_i . a| < 1e-6``) whose spread is below ``max_spread``, the child's centre is set, along ``R_p e_i``,
     to the training mean ``child_in_parent[i] x |size_p|``; the other coordinates, the rotation and the
-    size are kept. Joint states (measured along the axis) do not change. Joints without a measured spread
-    (revolute joints, priors measured before it) are left alone.
+    size are kept. Joint states (measured along the axis) do not change. A moved child carries nothing along
+    (its own children keep their places). Joints without a measured spread (revolute joints, priors
+    measured before it) are left alone.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents.
