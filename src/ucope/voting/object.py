@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry.kinematics import joint_state_from_poses
+from ..geometry.transforms import rotation_angle_deg
 from ..priors import CategoryPriors
 from ..vocab import JointType
 from .faces import align_parts_to_faces, face_normals
@@ -92,8 +93,9 @@ def vote_object(
     if align_faces or priors.num_joints == 0:  # the points each part's pairs were drawn from
         idx = np.asarray(pair_idx.cpu() if hasattr(pair_idx, "cpu") else pair_idx).reshape(K, -1)
         part_points = [np.unique(i) for i in idx]
+        pts = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64)
     if align_faces:
-        nrm = face_normals(np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64).reshape(-1, 3))
+        nrm = face_normals(pts.reshape(-1, 3))
         follow = [(j.child, j.parent) for j in priors.joints if j.type == JointType.PRISMATIC]
         out["cam_from_part"], out["face_aligned"] = align_parts_to_faces(
             out["cam_from_part"], nrm, part_points, [p.symmetry for p in priors.parts], follow
@@ -102,7 +104,6 @@ def vote_object(
     else:
         faces = None
     if priors.num_joints == 0:
-        pts = np.asarray(points.cpu() if hasattr(points, "cpu") else points, dtype=np.float64)
         if resolve_flips and shape_flips:
             out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(
                 out["cam_from_part"], out["size_m"], pts, part_points, priors, shapes
@@ -278,8 +279,7 @@ def _root_back_to_faces(T: np.ndarray, joint_axis: np.ndarray, faces: tuple, pri
     degrees, enough to bring them inside the matching cone."""
     T = np.array(T, np.float64)
     R_ref, R_aligned = T[0, :3, :3].copy(), faces[2]
-    angle = np.degrees(np.arccos(np.clip((np.trace(R_aligned.T @ R_ref) - 1.0) / 2.0, -1.0, 1.0)))
-    if angle <= FACE_RESET_MAX_DEG:
+    if rotation_angle_deg(R_aligned, R_ref) <= FACE_RESET_MAX_DEG:
         turn = R_aligned @ R_ref.T
     else:
         tree = [(jp.child, jp.parent) for jp in priors.joints]
