@@ -92,16 +92,23 @@ def set_defaults(
     grow_boxes: list[str] | None = None,
     align_faces: list[str] | None = None,
     wide_scale_search: list[str] | None = None,
+    fit_extents: list[str] | None = None,
 ) -> None:
     """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
-    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes``, ``align_faces`` and ``wide_scale_search``
-    likewise when those lists are given; the other defaults (``denoise_above_m``) are kept."""
+    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes``, ``align_faces``, ``wide_scale_search`` and
+    ``fit_extents`` likewise when those lists are given; the other defaults (``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
         info.setdefault("defaults", {}).update(
             refine=refine_default(json.loads(off.read_text()), json.loads(on.read_text())), decided_from=[off.name, on.name]
         )
-    lists = dict(remove_plane=remove_plane, grow_boxes=grow_boxes, align_faces=align_faces, wide_scale_search=wide_scale_search)
+    lists = dict(
+        remove_plane=remove_plane,
+        grow_boxes=grow_boxes,
+        align_faces=align_faces,
+        wide_scale_search=wide_scale_search,
+        fit_extents=fit_extents,
+    )
     for key, cats in lists.items():
         if cats is not None:
             info.setdefault("defaults", {})[key] = cat in cats
@@ -110,7 +117,7 @@ def set_defaults(
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``
     (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
-    ``wide_scale_search``)."""
+    ``wide_scale_search`` / ``fit_extents``)."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
@@ -128,7 +135,7 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
 
 def set_run_defaults(runs: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
-    ``wide_scale_search``, when given) into
+    ``wide_scale_search`` / ``fit_extents``, when given) into
     ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
@@ -190,12 +197,21 @@ def main() -> int:
         help="the categories whose models' scale search also tries 0.8x and 1.25x the typical size by default "
         "(info.defaults.wide_scale_search; docs/results.md has the measurements); others get it off; omitted: left as it is",
     )
+    ap.add_argument(
+        "--fit-extents",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help="the categories whose models set the box axes a view sees whole from their points by default "
+        "(info.defaults.fit_extents; docs/results.md has the measurements); others get it off; omitted: left as it is",
+    )
     args = ap.parse_args()
     lists = dict(
         remove_plane=args.remove_plane,
         grow_boxes=args.grow_boxes,
         align_faces=args.align_faces,
         wide_scale_search=args.wide_scale_search,
+        fit_extents=args.fit_extents,
     )
     dest = pretrained_dir()
     if args.figures_only:

@@ -2,12 +2,14 @@
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
+from ucope.geometry.boxes import SEEN_PATTERNS
 from ucope.objects.categories import make_instance
 from ucope.priors import (
     CategoryPriors,
@@ -16,6 +18,7 @@ from ucope.priors import (
     measure_priors,
     pivot_offsets,
     placement_offsets,
+    seen_extent_statistics,
     structure_from_dict,
     upright_statistics,
 )
@@ -173,3 +176,31 @@ def test_bad_priors_and_structures_are_refused():
         measure_priors([], "laptop", _structure("laptop"))
     with pytest.raises(InputError, match="3 parts"):
         measure_priors(_samples("eyeglasses", 2), "laptop", _structure("laptop"))
+
+
+def test_seen_extents_are_ordered_percentiles_of_what_the_views_saw_and_round_trip():
+    """The laptop's lid, seen from outside, shows nearly all of its width (x) in every view; the table's
+    percentiles are ordered, patterns seen too rarely are NaN, and the JSON form (null for NaN) round-trips."""
+    samples = _samples("laptop", 24)
+    table = seen_extent_statistics(samples, 2, min_views=3)
+    assert table.shape == (2, 3, SEEN_PATTERNS, 3)
+    measured = ~np.isnan(table[..., 0])
+    assert measured.any() and (~measured).any()
+    t = table[measured]
+    assert np.all(t[:, 0] <= t[:, 1]) and np.all(t[:, 1] <= t[:, 2]) and np.all(t >= 0)
+    lid_x = table[1, 0][~np.isnan(table[1, 0, :, 1])]
+    assert len(lid_x) and np.all(lid_x[:, 1] > 0.9)
+    assert np.isnan(seen_extent_statistics(samples, 2, min_views=1000)).all()
+    # measure_priors keeps it per part; JSON null <-> NaN
+    pri = measure_priors(samples, "laptop", _structure("laptop"))
+    assert pri.seen_extent.shape == (2, 3, SEEN_PATTERNS, 3)
+    back = CategoryPriors.from_dict(json.loads(json.dumps(pri.to_dict())), pri.tensors())
+    np.testing.assert_array_equal(back.seen_extent, pri.seen_extent)  # NaN where NaN
+    no_table = replace(pri, parts=tuple(replace(p, seen_extent=None) for p in pri.parts))
+    assert no_table.seen_extent is None
+    with pytest.raises(InputError, match="seen_extent"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), seen_extent=[[[1.0, 1.0, 1.0]] * SEEN_PATTERNS] * 2)
+    with pytest.raises(InputError, match="seen_extent"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), seen_extent=[[[-1.0, 1.0, 1.0]] * SEEN_PATTERNS] * 3)
+    with pytest.raises(InputError, match="seen_extent"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), seen_extent=[[["x", 1.0, 1.0]] * SEEN_PATTERNS] * 3)

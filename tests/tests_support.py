@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ucope.objects.articulation import build_object, make_part
 from ucope.objects.shapes import box
 
@@ -28,3 +30,22 @@ def measured_priors(category: str, samples):
     from ucope.priors import measure_priors
 
     return measure_priors(samples, category, make_instance(category, "train", 0).structure())
+
+
+def seen_pattern_reference(T, S):
+    """Plain loops: the camera (origin) in each box's frame, each axis's two other axes coded by hand."""
+    out = np.zeros((len(T), 3), dtype=int)
+    for k in range(len(T)):
+        cam = T[k, :3, :3].T @ (np.zeros(3) - T[k, :3, 3])
+        codes = []
+        for b in range(3):
+            if cam[b] > S[k, b] / 2:
+                codes.append(1)
+            elif cam[b] < -S[k, b] / 2:
+                codes.append(2)
+            else:
+                codes.append(0)
+        for a in range(3):
+            b, c = [i for i in range(3) if i != a]
+            out[k, a] = 3 * codes[b] + codes[c]
+    return out

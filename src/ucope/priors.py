@@ -6,8 +6,9 @@ model is trained (:func:`measure_priors`, from the training samples and the data
 structure) and stored in the model files, so a model predicts without the generator (or the meshes)
 that made its data.
 
-* :class:`PartPrior`: a part's name, symmetry, vote range and mean size, and the part axis (if any) that
-  the training views hold upright: its direction in the camera frame and the cone it stays in;
+* :class:`PartPrior`: a part's name, symmetry, vote range and mean size, the part axis (if any) that
+  the training views hold upright (its direction in the camera frame and the cone it stays in), and how
+  much of each box axis the training views saw, per face pattern (:func:`seen_extent_statistics`);
 * :class:`JointPrior`: a joint's type, parent and child, canonical axis in the parent frame, state
   limits, prismatic zero offset, where its two parts' centres sit relative to each other and where a
   revolute axis passes in each part's unit box;
@@ -44,6 +45,10 @@ __all__ = [
     "upright_statistics",
     "shape_template_points",
     "cloud_radius",
+    "seen_extent_statistics",
+    "SEEN_QUANTILE",
+    "SEEN_MAX_OCCLUDED",
+    "SEEN_MIN_VIEWS",
 ]
 
 TEMPLATE_POINTS = 4096
@@ -52,6 +57,18 @@ TEMPLATE_POINTS = 4096
 UPRIGHT_MIN_RESULTANT = 0.9
 """A part axis counts as held upright by the training views when the mean of its camera-frame
 directions has at least this length (1 = always the same direction, about 0 = any direction)."""
+
+
+SEEN_QUANTILE = 0.01
+"""A part's seen extent along an axis is the range from this quantile to ``1 -`` it of its points' coordinates
+(:func:`seen_extent_statistics`, :func:`ucope.voting.fit_seen_extents`)."""
+
+SEEN_MAX_OCCLUDED = 0.25
+"""Views where another part's box hides more than this fraction of a part's faced box points
+(:func:`ucope.geometry.boxes.occluded_fraction`) do not count towards its seen extents (and are not fitted)."""
+
+SEEN_MIN_VIEWS = 20
+"""A face pattern needs this many training views of a part to get seen-extent percentiles."""
 
 
 def _finite(values, name: str, positive: bool = False) -> np.ndarray:
@@ -79,6 +96,12 @@ class PartPrior:
         upright_in_cam: ``(3,)`` that axis's mean direction in the camera frame (OpenCV axes), unit.
         upright_cone_deg: the largest angle between that axis and ``upright_in_cam`` over the training
             views.
+        seen_extent: ``(3, SEEN_PATTERNS, 3)`` per part axis and face pattern
+            (:func:`ucope.geometry.boxes.seen_pattern`) the 10th, 50th and 90th percentiles of the seen ratio
+            over the training views (the :data:`SEEN_QUANTILE` range of the part's points along the axis over
+            its box extent, :func:`seen_extent_statistics`); NaN (``null`` in JSON) where a pattern had fewer
+            than :data:`SEEN_MIN_VIEWS` views; ``None`` when not measured. Used by
+            :func:`ucope.voting.fit_seen_extents`.
     """
 
     name: str
@@ -88,9 +111,24 @@ class PartPrior:
     upright_axis: int | None = None
     upright_in_cam: tuple[float, float, float] | None = None
     upright_cone_deg: float | None = None
+    seen_extent: tuple | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         parse_symmetry(self.symmetry)
+        if self.seen_extent is not None:
+            from .geometry.boxes import SEEN_PATTERNS
+
+            try:
+                table = np.array(
+                    [[[np.nan if v is None else v for v in row] for row in ax] for ax in self.seen_extent], np.float64
+                )
+            except (TypeError, ValueError):
+                table = np.zeros(0)
+            if table.shape != (3, SEEN_PATTERNS, 3) or np.isinf(table).any() or (table < 0).any():
+                raise InputError(
+                    f"part {self.name!r}: seen_extent must be 3 x {SEEN_PATTERNS} x 3 ratios >= 0 (NaN or null: not measured)"
+                )
+            object.__setattr__(self, "seen_extent", tuple(tuple(tuple(float(v) for v in row) for row in ax) for ax in table))
         object.__setattr__(self, "vote_range_m", float(_finite(self.vote_range_m, f"part {self.name!r} vote_range_m", True)))
         size = _finite(self.mean_size_m, f"part {self.name!r} mean_size_m", True).reshape(-1)
         if size.shape != (3,):
@@ -121,6 +159,9 @@ class PartPrior:
             "upright_axis": self.upright_axis,
             "upright_in_cam": None if self.upright_in_cam is None else list(self.upright_in_cam),
             "upright_cone_deg": self.upright_cone_deg,
+            "seen_extent": None
+            if self.seen_extent is None
+            else [[[None if math.isnan(v) else v for v in row] for row in ax] for ax in self.seen_extent],
         }
 
 
@@ -324,6 +365,18 @@ class CategoryPriors:
         return np.array([p.mean_size_m for p in self.parts], dtype=np.float64)
 
     @property
+    def seen_extent(self) -> np.ndarray | None:
+        """``(K, 3, SEEN_PATTERNS, 3)`` float64 :attr:`PartPrior.seen_extent` of every part (NaN for a part
+        without one), or ``None`` when no part has one."""
+        if all(p.seen_extent is None for p in self.parts):
+            return None
+        from .geometry.boxes import SEEN_PATTERNS
+
+        return np.stack(
+            [np.full((3, SEEN_PATTERNS, 3), np.nan) if p.seen_extent is None else np.array(p.seen_extent) for p in self.parts]
+        )
+
+    @property
     def joint_axes(self) -> np.ndarray:
         """``(J, 3)`` float64 unit axes, each in its parent's frame."""
         return np.array([j.axis_in_parent for j in self.joints], dtype=np.float64).reshape(-1, 3)
@@ -358,6 +411,7 @@ class CategoryPriors:
                     upright_axis=p.get("upright_axis"),
                     upright_in_cam=_tuple_or_none(p.get("upright_in_cam")),
                     upright_cone_deg=p.get("upright_cone_deg"),
+                    seen_extent=p.get("seen_extent"),
                 )
                 for p in d["parts"]
             )
@@ -508,6 +562,56 @@ def upright_statistics(cam_from_part: np.ndarray, min_resultant: float = UPRIGHT
     return out
 
 
+def seen_extent_statistics(
+    samples: Sequence[Mapping[str, Any]],
+    num_parts: int,
+    quantile: float = SEEN_QUANTILE,
+    max_occluded: float = SEEN_MAX_OCCLUDED,
+    min_views: int = SEEN_MIN_VIEWS,
+    min_points: int = 30,
+) -> np.ndarray:
+    """``(K, 3, SEEN_PATTERNS, 3)`` how much of each part axis the views saw, per face pattern.
+
+    For every sample and part with at least ``min_points`` labelled points that other parts' boxes do not
+    hide (:func:`ucope.geometry.boxes.occluded_fraction` at most ``max_occluded``, at the true poses): the
+    seen ratio along each axis (``quantile`` to ``1 - quantile`` range of the points in the part's frame over
+    its box extent) is filed under the axis's face pattern (:func:`ucope.geometry.boxes.seen_pattern`).
+    Returns the 10th, 50th and 90th percentiles per part, axis and pattern; NaN where fewer than
+    ``min_views`` views."""
+    from .geometry.boxes import SEEN_PATTERNS, occluded_fraction, seen_pattern
+
+    K = int(num_parts)
+    ratios, pattern, part, axis = [], [], [], []
+    for s in samples:  # one pass per sample; its points are handled with array operations
+        T = np.asarray(s["cam_from_part"], dtype=np.float64)
+        S = np.asarray(s["size_m"], dtype=np.float64)
+        pts = np.asarray(s["points"], dtype=np.float64)
+        lab = np.asarray(s["part_labels"])
+        pat = seen_pattern(T, S)
+        occ = occluded_fraction(T, S)
+        for k in range(K):  # a handful of parts
+            sel = lab == k
+            if np.count_nonzero(sel) < min_points or occ[k] > max_occluded:
+                continue
+            q = (pts[sel] - T[k, :3, 3]) @ T[k, :3, :3]
+            lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+            ratios.append((hi - lo) / S[k])
+            pattern.append(pat[k])
+            part.append(np.full(3, k))
+            axis.append(np.arange(3))
+    out = np.full((K, 3, SEEN_PATTERNS, 3), np.nan)
+    if not ratios:
+        return out
+    r, p, k, a = (np.concatenate(x) for x in (ratios, pattern, part, axis))
+    cell = (k * 3 + a) * SEEN_PATTERNS + p
+    for c in np.unique(cell):  # at most K * 3 * SEEN_PATTERNS cells
+        v = r[cell == c]
+        if len(v) >= min_views:
+            kk, rest = divmod(int(c), 3 * SEEN_PATTERNS)
+            out[kk, rest // SEEN_PATTERNS, rest % SEEN_PATTERNS] = np.percentile(v, [10.0, 50.0, 90.0])
+    return out
+
+
 def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_points: int = TEMPLATE_POINTS) -> np.ndarray:
     """``(P, 3)`` float32 points of ``part`` seen in ``samples``, in its unit box (part frame / extents).
 
@@ -551,7 +655,8 @@ def measure_priors(
     scale = mean cloud radius, the range of :func:`cloud_radius` and its 2nd-98th percentiles, prismatic
     zero offsets and part placements at the true poses (with their spread for prismatic joints), joint
     limits = the declared limits widened to every state seen, revolute pivots in the parts' unit boxes
-    (:func:`pivot_offsets`) and the upright axes (:func:`upright_statistics`).
+    (:func:`pivot_offsets`), the upright axes (:func:`upright_statistics`) and the seen extents
+    (:func:`seen_extent_statistics`).
     Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
@@ -575,12 +680,14 @@ def measure_priors(
     mean = np.exp(np.log(size).mean(0))
     T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
     upright = upright_statistics(T)
+    seen = seen_extent_statistics(picked, K)
     parts = tuple(
         PartPrior(
             name=nm,
             symmetry=sym,
             vote_range_m=float(vote[k]),
             mean_size_m=tuple(mean[k]),
+            seen_extent=seen[k],
             **(dict(zip(("upright_axis", "upright_in_cam", "upright_cone_deg"), upright[k], strict=True)) if upright[k] else {}),
         )
         for k, (nm, sym) in enumerate(part_decl)

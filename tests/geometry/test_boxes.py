@@ -4,15 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests_support import seen_pattern_reference
 
 from ucope.errors import InputError
 from ucope.geometry.boxes import (
     BOX_EDGES,
+    SEEN_PATTERNS,
     box_corners,
     box_iou_3d,
     box_iou_3d_batch,
     box_iou_3d_symmetric_y,
     box_volume,
+    occluded_fraction,
+    seen_pattern,
 )
 from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
 
@@ -340,3 +344,80 @@ def test_bad_input_other_functions():
     with pytest.raises(InputError, match="num_angles"):
         box_iou_3d_symmetric_y(*GOOD, num_angles=0)
     assert issubclass(InputError, ValueError)
+
+
+# ------------------------------------------------------------------------------- faced faces, occlusion
+def _random_boxes(rng, K):
+    T = np.stack([make_transform(random_rotation(rng), rng.normal(size=3) * 0.3 + [0, 0, 1.5]) for _ in range(K)])
+    return T, rng.uniform(0.1, 0.6, (K, 3))
+
+
+def occluded_reference(T, S, steps=4000):
+    """Each faced sample point's segment from the camera walked in ``steps`` steps, every step tested against
+    every other box with plain loops."""
+    out = np.zeros(len(T))
+    grid = [-0.95, 0.0, 0.95]
+    for k in range(len(T)):
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        cam = R.T @ -t
+        pts = []
+        for a in range(3):
+            if abs(cam[a]) <= S[k, a] / 2:
+                continue
+            b, c = [i for i in range(3) if i != a]
+            for u in grid:
+                for v in grid:
+                    q = np.zeros(3)
+                    q[a] = np.sign(cam[a]) * S[k, a] / 2
+                    q[b], q[c] = u * S[k, b] / 2, v * S[k, c] / 2
+                    pts.append(R @ q + t)
+        hidden = 0
+        walk = np.linspace(0.0, 0.998, steps)[:, None]
+        for p in pts:
+            x = walk * p  # (steps, 3) along the segment
+            if any(np.all(np.abs((x - T[j, :3, 3]) @ T[j, :3, :3]) <= S[j] / 2, axis=1).any() for j in range(len(T)) if j != k):
+                hidden += 1
+        out[k] = hidden / len(pts) if pts else 0.0
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_seen_pattern_matches_the_plain_reference(seed):
+    rng = np.random.default_rng(seed)
+    T, S = _random_boxes(rng, 6)
+    T[0, :3, 3] = 0.0  # the camera inside box 0: no face of it is faced
+    got = seen_pattern(T, S)
+    assert got.dtype == np.int64 and got.shape == (6, 3) and got.min() >= 0 and got.max() < SEEN_PATTERNS
+    np.testing.assert_array_equal(got, seen_pattern_reference(T, S))
+    assert np.all(got[0] == 0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 5])  # scenes where some box hides part of another
+def test_occluded_fraction_matches_a_walked_reference(seed):
+    rng = np.random.default_rng(seed)
+    T, S = _random_boxes(rng, 3)
+    got = occluded_fraction(T, S)
+    # the walk could miss a box that a segment only grazes: one sample point of 27 at most
+    np.testing.assert_allclose(got, occluded_reference(T, S), atol=1.0 / 27 + 1e-9)
+    assert np.all((got >= 0) & (got <= 1)) and got.max() > 0.1
+
+
+def test_a_box_behind_another_is_hidden_and_the_front_one_is_not():
+    front = make_transform(np.eye(3), [0.0, 0.0, 1.0])
+    back = make_transform(np.eye(3), [0.0, 0.0, 2.0])
+    S = np.array([[1.0, 1.0, 0.2], [0.4, 0.4, 0.2]])  # the front box is wider than the one behind it
+    np.testing.assert_array_equal(occluded_fraction(np.stack([front, back]), S), [0.0, 1.0])
+    beside = make_transform(np.eye(3), [3.0, 0.0, 2.0])
+    np.testing.assert_array_equal(occluded_fraction(np.stack([front, beside]), S), [0.0, 0.0])
+    assert occluded_fraction(front[None], S[:1]).tolist() == [0.0]  # a single box hides nothing
+
+
+def test_faced_faces_bad_input_is_named():
+    with pytest.raises(InputError, match="cam_from_box"):
+        seen_pattern(np.eye(4), np.ones(3))
+    with pytest.raises(InputError, match="size_m"):
+        seen_pattern(np.eye(4)[None], np.ones((2, 3)))
+    with pytest.raises(InputError, match="size_m"):
+        occluded_fraction(np.eye(4)[None], -np.ones((1, 3)))
+    with pytest.raises(InputError, match="rigid"):
+        occluded_fraction(np.eye(4)[None] * 2, np.ones((1, 3)))

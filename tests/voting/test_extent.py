@@ -1,14 +1,17 @@
-"""grow_to_points: against a plain per-axis reference, and its contract (never shrinks, thin axes,
-symmetric parts, few points, labels outside the parts, bad input)."""
+"""grow_to_points and fit_seen_extents: against plain per-axis references, and their contracts (growth never
+shrinks, thin axes, symmetric parts, few points, labels outside the parts, hidden parts, bad input)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests_support import seen_pattern_reference
 
 from ucope.errors import InputError
+from ucope.geometry.boxes import SEEN_PATTERNS
 from ucope.geometry.transforms import make_transform, random_rotation
-from ucope.voting import grow_to_points
+from ucope.voting import fit_seen_extents, grow_to_points
+from ucope.voting.extent import FIT_MAX_RATIO, FIT_MIN_RATIO, FIT_MIN_SEEN
 
 
 def joined_reference(local, half, factor):
@@ -167,3 +170,123 @@ def test_bad_input_is_named():
         grow_to_points(T, S, pts, lab, connect_factor=0.0)
     with pytest.raises(InputError, match="symmetry"):
         grow_to_points(T, S, pts, lab, ["none", "y"])
+
+
+# ------------------------------------------------------------------------------------ fit_seen_extents
+def fit_reference(T, S, pts, labels, table, sym, q, min_points, min_ratio, max_ratio, min_seen):
+    """Plain loops over parts and axes, the contract written out (no joining test, no hiding neighbours)."""
+    T, S = np.array(T, float), np.array(S, float)
+    pattern = seen_pattern_reference(T, S)
+    for k in range(len(T)):
+        own = [p for p, lab in zip(pts, labels, strict=True) if lab == k]
+        if len(own) < min_points:
+            continue
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        local = np.array([R.T @ (p - t) for p in own])
+        shift = np.zeros(3)
+        for a in range(3):
+            lo10, mid, hi90 = table[k, a, pattern[k, a]]
+            if sym[k] != "none" and a != 1:
+                continue
+            if not (lo10 >= min_ratio and hi90 <= max_ratio):  # NaN: not measured, never fitted
+                continue
+            lo, hi = np.quantile(local[:, a], q), np.quantile(local[:, a], 1 - q)
+            if (hi - lo) / mid < min_seen * S[k, a]:
+                continue
+            S[k, a] = (hi - lo) / mid
+            shift[a] = (lo + hi) / 2
+        T[k, :3, 3] = t + R @ shift
+    return T, S
+
+
+def _face_points(T, S, rng, n=600):
+    """``(n, 3)`` camera-frame points on the faces of the box ``T, S`` that the camera (origin) faces."""
+    cam = T[:3, :3].T @ -T[:3, 3]
+    faces = [a for a in range(3) if abs(cam[a]) > S[a] / 2]
+    q = rng.uniform(-0.5, 0.5, (n, 3)) * S
+    a = np.array(faces)[rng.integers(0, len(faces), n)]
+    q[np.arange(n), a] = np.sign(cam[a]) * S[a] / 2
+    return q @ T[:3, :3].T + T[:3, 3]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_fit_matches_the_plain_reference(seed):
+    rng = np.random.default_rng(seed)
+    T, S, pts, labels = _scene(rng, K=3)
+    table = np.sort(rng.uniform(0.8, 1.1, (3, 3, SEEN_PATTERNS, 3)), axis=-1)
+    table[rng.uniform(size=table.shape[:3]) < 0.3] = np.nan  # patterns never measured
+    sym = ["none", "y", "none"]
+    got_T, got_S, fitted = fit_seen_extents(T, S, pts, labels, table, sym, connect_factor=None, max_occluded=1.0, min_points=20)
+    ref_T, ref_S = fit_reference(T, S, pts, labels, table, sym, 0.01, 20, FIT_MIN_RATIO, FIT_MAX_RATIO, FIT_MIN_SEEN)
+    np.testing.assert_allclose(got_S, ref_S, rtol=1e-12)
+    np.testing.assert_allclose(got_T, ref_T, rtol=1e-12, atol=1e-12)
+    assert fitted.any() and not fitted[1, [0, 2]].any()
+    np.testing.assert_array_equal(got_T[:, :3, :3], T[:, :3, :3])
+
+
+def test_an_axis_seen_whole_is_set_from_the_points_larger_or_smaller():
+    """A box seen from above-front-right: a voted box 1.6x too tall and 0.7x too wide gets the true extents
+    back on the two axes its table marks as seen whole; the third (not measured) keeps its voted extent."""
+    rng = np.random.default_rng(0)
+    true = make_transform(random_rotation(rng) @ np.eye(3), [0.1, -0.2, 1.5])
+    size = np.array([0.4, 0.3, 0.5])
+    pts = _face_points(true, size, rng)
+    voted = size * [0.7, 1.6, 1.0]
+    table = np.full((1, 3, SEEN_PATTERNS, 3), np.nan)
+    table[0, :2] = [0.95, 1.0, 1.02]  # x and y seen whole in every pattern; z never measured
+    T, S, fitted = fit_seen_extents(true[None], voted[None], pts, np.zeros(len(pts), int), table, quantile=0.0)
+    np.testing.assert_array_equal(fitted, [[True, True, False]])
+    np.testing.assert_allclose(S[0], [size[0], size[1], voted[2]], rtol=2e-2)
+    np.testing.assert_allclose(T[0, :3, 3], true[:3, 3], atol=0.02)
+
+
+def test_hidden_symmetric_sparse_and_far_too_small_parts_keep_their_boxes():
+    rng = np.random.default_rng(1)
+    front = make_transform(np.eye(3), [0.0, 0.0, 1.0])
+    back = make_transform(np.eye(3), [0.0, 0.0, 2.0])
+    S = np.array([[1.0, 1.0, 0.2], [0.4, 0.4, 0.2]])
+    pts = np.concatenate([_face_points(front, S[0] * 0.5, rng), _face_points(back, S[1] * 0.5, rng)])
+    labels = np.repeat([0, 1], len(pts) // 2)
+    table = np.full((2, 3, SEEN_PATTERNS, 3), np.nan)
+    table[:, :] = [0.95, 1.0, 1.02]
+    T2 = np.stack([front, back])
+    # the back box is hidden behind the front one: kept; the front one is fitted
+    _, S_out, fitted = fit_seen_extents(T2, S, pts, labels, table, min_seen=0.1)
+    assert fitted[0, :2].all() and not fitted[1].any()
+    np.testing.assert_array_equal(S_out[1], S[1])
+    # far smaller than voted (below min_seen): kept
+    _, _, fitted = fit_seen_extents(T2, S, pts, labels, table, min_seen=0.9, max_occluded=1.0)
+    assert not fitted[:, :2].any()
+    # symmetric about y: only y may be set; too few points: nothing
+    _, _, fitted = fit_seen_extents(T2, S, pts, labels, table, ["y", "none"], min_seen=0.1, max_occluded=1.0)
+    assert not fitted[0, [0, 2]].any()
+    _, S_out, fitted = fit_seen_extents(T2, S, pts[:10], labels[:10], table)
+    assert not fitted.any() and np.array_equal(S_out, S)
+
+
+def test_fit_bad_input_is_named():
+    T, S = np.eye(4)[None], np.ones((1, 3))
+    pts, lab = np.zeros((5, 3)), np.zeros(5, int)
+    table = np.full((1, 3, SEEN_PATTERNS, 3), 1.0)
+    with pytest.raises(InputError, match="cam_from_part"):
+        fit_seen_extents(np.eye(4), S, pts, lab, table)
+    with pytest.raises(InputError, match="size_m"):
+        fit_seen_extents(T, np.ones((2, 3)), pts, lab, table)
+    with pytest.raises(InputError, match="seen_extent must have shape"):
+        fit_seen_extents(T, S, pts, lab, table[:, :2])
+    with pytest.raises(InputError, match="ratios >= 0"):
+        fit_seen_extents(T, S, pts, lab, -table)
+    with pytest.raises(InputError, match="ratios >= 0"):
+        fit_seen_extents(T, S, pts, lab, np.full_like(table, np.inf))
+    with pytest.raises(InputError, match="labels"):
+        fit_seen_extents(T, S, pts, np.zeros(5), table)
+    with pytest.raises(InputError, match="finite"):
+        fit_seen_extents(T, S, np.full((5, 3), np.nan), lab, table)
+    with pytest.raises(InputError, match="quantile"):
+        fit_seen_extents(T, S, pts, lab, table, quantile=-0.1)
+    with pytest.raises(InputError, match="min_seen"):
+        fit_seen_extents(T, S, pts, lab, table, min_seen=0.0)
+    with pytest.raises(InputError, match="confidence"):
+        fit_seen_extents(T, S, pts, lab, table, confidence=np.ones(3))
+    with pytest.raises(InputError, match="symmetry"):
+        fit_seen_extents(T, S, pts, lab, table, ["none", "y"])

@@ -504,6 +504,14 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "never saw (default: the model's own; on for the shipped models where it measured better, docs/results.md)",
     )
     p.add_argument(
+        "--fit-extents",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="set the box axes that views like this one see whole from the points segmented as that part, larger or "
+        "smaller than voted (default: the model's own; on for the shipped models where it measured better, "
+        "docs/results.md)",
+    )
+    p.add_argument(
         "--align-faces",
         action=argparse.BooleanOptionalAction,
         default=None,

@@ -37,6 +37,9 @@ __all__ = [
     "box_iou_3d",
     "box_iou_3d_batch",
     "box_iou_3d_symmetric_y",
+    "SEEN_PATTERNS",
+    "seen_pattern",
+    "occluded_fraction",
 ]
 
 #: ``(8, 3)`` float array: the sign of each coordinate of corner ``i`` in the box frame
@@ -563,3 +566,101 @@ def _max_iou_about_y(
         if res.success and -res.fun > best_iou:
             best_iou, best_theta = float(-res.fun), float(x[i] + res.x)
     return best_iou, best_theta
+
+
+SEEN_PATTERNS = 9
+"""How many face patterns :func:`seen_pattern` tells apart per box axis."""
+
+_OTHER_AXES = np.array([[1, 2], [0, 2], [0, 1]])
+
+
+def seen_pattern(cam_from_box, size_m) -> np.ndarray:
+    """Which faces across each axis of each box the camera faces.
+
+    The camera sits at the origin of the outer frame. Along a box axis ``b`` it faces the + face when it lies
+    beyond it (box-frame coordinate ``> size_b / 2``), the - face when below ``-size_b / 2``, neither when
+    within the slab: code 1, 2 or 0 (perspective, not the viewing direction alone: a tall cabinet's top is not
+    faced from a camera below it). An axis ``a``'s extent shows on the faces across it, normal to the two other
+    axes ``b < c``; its pattern is ``3 * code_b + code_c``.
+
+    Args:
+        cam_from_box: ``(K, 4, 4)`` rigid transforms.
+        size_m: ``(K, 3)`` full extents (metres, > 0).
+
+    Returns:
+        ``(K, 3)`` int64 in ``[0, SEEN_PATTERNS)``.
+
+    Raises:
+        InputError: malformed shapes or values.
+    """
+    T = _check_transform(cam_from_box, "cam_from_box")
+    if T.ndim != 3:
+        raise InputError(f"cam_from_box must have shape (K, 4, 4), got {T.shape}")
+    S = _check_size(size_m, "size_m", batch_shape=T.shape[:1])
+    cam = -np.einsum("kji,kj->ki", T[:, :3, :3], T[:, :3, 3])  # the camera in each box's frame
+    half = 0.5 * S
+    code = np.where(cam > half, 1, np.where(cam < -half, 2, 0))
+    return (3 * code[:, _OTHER_AXES[:, 0]] + code[:, _OTHER_AXES[:, 1]]).astype(np.int64)
+
+
+def _faced_points(cam: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` sample points (box frame) on the faces of a box of half extents ``half`` that a camera at
+    ``cam`` (box frame) faces: per face a 3 x 3 grid at -0.95, 0 and 0.95 of the half extents."""
+    g = np.array([-0.95, 0.0, 0.95])
+    uv = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    out = []
+    for a in range(3):  # three axes
+        side = np.sign(cam[a]) if abs(cam[a]) > half[a] else 0.0
+        if side:
+            q = np.zeros((len(uv), 3))
+            q[:, a] = side * half[a]
+            q[:, _OTHER_AXES[a]] = uv * half[_OTHER_AXES[a]]
+            out.append(q)
+    return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+def occluded_fraction(cam_from_box, size_m) -> np.ndarray:
+    """Per box, the fraction of its faced sample points that another box hides from the camera.
+
+    The camera sits at the origin of the outer frame. A box's sample points are a 3 x 3 grid (centre, edge
+    midpoints, corners pulled 5 % in) on every face it turns to the camera (:func:`seen_pattern`); a point is
+    hidden when the segment from the camera to it crosses another box (slab test). A part's points need not
+    span its box where a neighbour hides it (a closed door seen from behind its cabinet).
+
+    Args:
+        cam_from_box: ``(K, 4, 4)`` rigid transforms.
+        size_m: ``(K, 3)`` full extents (metres, > 0).
+
+    Returns:
+        ``(K,)`` float64 in ``[0, 1]``; 0 for a single box and for a box with no faced face (camera inside).
+
+    Raises:
+        InputError: malformed shapes or values.
+    """
+    T = _check_transform(cam_from_box, "cam_from_box")
+    if T.ndim != 3:
+        raise InputError(f"cam_from_box must have shape (K, 4, 4), got {T.shape}")
+    K = len(T)
+    half = 0.5 * _check_size(size_m, "size_m", batch_shape=(K,))
+    out = np.zeros(K)
+    if K < 2:
+        return out
+    R, t = T[:, :3, :3], T[:, :3, 3]
+    cam = -np.einsum("kji,kj->ki", R, t)
+    for k in range(K):  # a handful of boxes; the segment tests are vectorised over points and boxes
+        local = _faced_points(cam[k], half[k])
+        if not len(local):
+            continue
+        world = local @ R[k].T + t[k]  # (N, 3) in the outer frame
+        others = np.array([j for j in range(K) if j != k])
+        o = cam[others][:, None, :]  # (J, 1, 3): the segment 0 -> world in box j's frame is o + s * d, s in [0, 1]
+        d = np.einsum("nc,jca->jna", world, R[others])  # (J, N, 3)
+        h = half[others][:, None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s1, s2 = (-h - o) / d, (h - o) / d
+        inside = np.abs(o) <= h
+        lo = np.where(d == 0, np.where(inside, -np.inf, np.inf), np.minimum(s1, s2)).max(-1)
+        hi = np.where(d == 0, np.where(inside, np.inf, -np.inf), np.maximum(s1, s2)).min(-1)
+        hidden = ((lo < hi) & (hi > 0.0) & (lo < 0.999)).any(0)
+        out[k] = float(hidden.mean())
+    return out

@@ -35,6 +35,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import InputError
+from ..geometry.boxes import SEEN_PATTERNS, occluded_fraction, seen_pattern
+from ..priors import SEEN_MAX_OCCLUDED, SEEN_QUANTILE
 
 __all__ = [
     "grow_to_points",
@@ -44,6 +46,11 @@ __all__ = [
     "GROW_MIN_POINTS",
     "GROW_CONNECT_FACTOR",
     "GROW_MIN_CONFIDENCE",
+    "fit_seen_extents",
+    "FIT_MIN_RATIO",
+    "FIT_MAX_RATIO",
+    "FIT_MIN_SEEN",
+    "FIT_MIN_CONFIDENCE",
 ]
 
 GROW_QUANTILE = 0.01
@@ -184,3 +191,156 @@ def grow_to_points(
         T[k, :3, 3] = t + R @ (0.5 * (new_lo + new_hi))
         grown[k] = True
     return T, S, grown
+
+
+FIT_MIN_RATIO = 0.85
+"""An axis is set from its part's points only where at least 90 % of the training views with the same face
+pattern saw at least this fraction of its extent (the 10th percentile of the seen ratio,
+:attr:`ucope.priors.PartPrior.seen_extent`)."""
+
+FIT_MAX_RATIO = 1.05
+"""... and at most 10 % saw more than this fraction (the 90th percentile: sensor noise, a part that reaches past
+its box)."""
+
+FIT_MIN_CONFIDENCE = 0.5
+"""Points whose confidence (the probability that they are the object, not the background) is below this do not
+count: lower than growth's :data:`GROW_MIN_CONFIDENCE`, since leaving a part's real points out shrinks a fitted
+box where it only keeps a grown one. The bottle's OOD views (shipped model, 100 views): 93 % success without
+fitting, 81 % fitting with 0.9, 96 % with 0.5."""
+
+FIT_MIN_SEEN = 0.5
+"""An axis whose fitted extent would fall below this times its voted extent keeps the voted one: the points
+span far less of it than views like this one do (a segmentation that gave much of the part to a neighbour)."""
+
+
+def fit_seen_extents(
+    cam_from_part,
+    size_m,
+    points,
+    labels,
+    seen_extent,
+    symmetry: Sequence[str] | None = None,
+    quantile: float = SEEN_QUANTILE,
+    min_points: int = GROW_MIN_POINTS,
+    connect_factor: float | None = GROW_CONNECT_FACTOR,
+    confidence=None,
+    min_confidence: float = FIT_MIN_CONFIDENCE,
+    min_ratio: float = FIT_MIN_RATIO,
+    max_ratio: float = FIT_MAX_RATIO,
+    min_seen: float = FIT_MIN_SEEN,
+    max_occluded: float = SEEN_MAX_OCCLUDED,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Box axes that views like this one see whole, set from the points segmented as their part.
+
+    A box seen from outside shows its extent along an axis wherever the camera faces one of the faces across
+    that axis and nothing hides them, and the training views measure how reliably: per part, axis and face
+    pattern (:func:`ucope.geometry.boxes.seen_pattern`) the percentiles of the seen ratio (the robust range
+    of the part's points along the axis over the box's extent, :attr:`ucope.priors.PartPrior.seen_extent`).
+    Where this view's pattern (from the voted pose and size) saw at least ``min_ratio`` in 90 % of the
+    training views and at most ``max_ratio`` in 90 %, the axis's extent becomes the points' robust range
+    (``quantile`` to ``1 - quantile``) over the median ratio, and the box centre moves to the middle of that
+    range along the axis: larger or smaller than voted. An object whose proportions the training never had (a
+    countertop dishwasher half as tall as it is wide) is measured rather than pulled to the training sizes.
+    Left alone: parts a neighbour's box hides (more than ``max_occluded`` of their faced points,
+    :func:`ucope.geometry.boxes.occluded_fraction`), the x and z axes of parts symmetric about y, parts with
+    fewer than ``min_points`` points (or joined to their box, :func:`joined_to_box`), and axes whose new
+    extent would be below ``min_seen`` times the voted one.
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` the parts' voted poses (camera frame, metres).
+        size_m: ``(K, 3)`` their box extents (metres, > 0).
+        points: ``(P, 3)`` the cloud the labels belong to (camera frame, metres).
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        seen_extent: ``(K, 3, SEEN_PATTERNS, 3)`` per part, axis and face pattern the 10th, 50th and 90th
+            percentiles of the seen ratio, NaN where not measured
+            (:attr:`ucope.priors.CategoryPriors.seen_extent`).
+        symmetry, min_points, connect_factor, confidence, min_confidence: as :func:`grow_to_points`.
+
+    Returns:
+        ``(cam_from_part, size_m, fitted)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays (rotations
+        unchanged) and ``(K, 3)`` bool, which axes were set.
+
+    Raises:
+        InputError: shapes that do not match, non-finite poses, sizes or points, a non-positive size, a
+            negative or non-finite table entry, ``quantile`` outside ``[0, 0.5)``, ratios that are not
+            positive.
+    """
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.array(size_m, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64)
+    lab = np.asarray(labels)
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        raise InputError(f"cam_from_part must have shape (K, 4, 4), got {T.shape}")
+    K = len(T)
+    if S.shape != (K, 3):
+        raise InputError(f"size_m must have shape ({K}, 3) for {K} parts, got {S.shape}")
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points must have shape (P, 3), got {pts.shape}")
+    if lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
+        raise InputError(f"labels must be {len(pts)} integers (one per point), got {lab.dtype} of shape {lab.shape}")
+    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all()):
+        raise InputError("cam_from_part, size_m and points must be finite")
+    if (S <= 0).any():
+        raise InputError(f"size_m must be positive, got {S.tolist()}")
+    table = np.asarray(seen_extent, dtype=np.float64)
+    if table.shape != (K, 3, SEEN_PATTERNS, 3):
+        raise InputError(f"seen_extent must have shape ({K}, 3, {SEEN_PATTERNS}, 3), got {table.shape}")
+    if np.isinf(table).any() or (table < 0).any():
+        raise InputError("seen_extent must hold ratios >= 0 (NaN where not measured)")
+    if not 0.0 <= quantile < 0.5:
+        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    if not (min_ratio > 0 and max_ratio > 0 and min_seen > 0):
+        raise InputError(f"min_ratio, max_ratio and min_seen must be positive, got {min_ratio!r}, {max_ratio!r}, {min_seen!r}")
+    if connect_factor is not None and not connect_factor > 0:
+        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
+    if confidence is not None:
+        conf = np.asarray(confidence, dtype=np.float64)
+        if conf.shape != (len(pts),) or not np.isfinite(conf).all():
+            raise InputError(f"confidence must be {len(pts)} finite values (one per point), got shape {conf.shape}")
+        lab = np.where(conf >= min_confidence, lab, -1)
+    sym = ["none"] * K if symmetry is None else list(symmetry)
+    if len(sym) != K:
+        raise InputError(f"symmetry must name {K} parts, got {len(sym)}")
+    stats = table[np.arange(K)[:, None], np.arange(3)[None, :], seen_pattern(T, S)]  # (K, 3, 3) for this view
+    with np.errstate(invalid="ignore"):  # NaN (not measured) compares False
+        fit = (stats[..., 0] >= min_ratio) & (stats[..., 2] <= max_ratio) & (stats[..., 1] > 0)
+    fit[np.array([k for k in range(K) if sym[k] != "none"], dtype=np.int64), 0::2] = False  # x, z of a y-symmetric part
+    fitted = np.zeros((K, 3), dtype=bool)
+    if not fit.any():
+        return T, S, fitted
+    fit &= (occluded_fraction(T, S) <= max_occluded)[:, None]
+    for k in np.flatnonzero(fit.any(1)):  # a handful of parts; the point work is vectorised
+        sel = lab == k
+        if np.count_nonzero(sel) < min_points:
+            continue
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        q = (pts[sel] - t) @ R  # the part's points in its voted frame
+        if connect_factor is not None:
+            q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
+            if len(q) < min_points:
+                continue
+        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+        new = (hi - lo) / np.where(fit[k], stats[k, :, 1], 1.0)
+        a = fit[k] & (new >= min_seen * S[k])
+        S[k] = np.where(a, new, S[k])
+        T[k, :3, 3] = t + R @ np.where(a, 0.5 * (lo + hi), 0.0)
+        fitted[k] = a
+    return T, S, fitted
+    fit &= (occluded_fraction(T, S) <= max_occluded)[:, None]
+    for k in np.flatnonzero(fit.any(1)):  # a handful of parts; the point work is vectorised
+        sel = lab == k
+        if np.count_nonzero(sel) < min_points:
+            continue
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        q = (pts[sel] - t) @ R  # the part's points in its voted frame
+        if connect_factor is not None:
+            q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
+            if len(q) < min_points:
+                continue
+        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+        new = (hi - lo) / np.where(fit[k], stats[k, :, 1], 1.0)
+        a = fit[k] & (new >= min_seen * S[k])
+        S[k] = np.where(a, new, S[k])
+        T[k, :3, 3] = t + R @ np.where(a, 0.5 * (lo + hi), 0.0)
+        fitted[k] = a
+    return T, S, fitted
