@@ -797,13 +797,15 @@ def main() -> int:
             "(unseen instances of the training families and sizes); *ood*: `ucope generate --split ood` (shape families held "
             "out of training, sizes scaled by log-uniform 0.5-2x, [conventions.md](conventions.md)), 100 views, evaluated "
             "with the model's shipped defaults (rescaling, plane removal, refinement, box growth, face alignment, "
-            "the three-size scale search, the drawer placement; its stored weights, half "
-            "precision where the packaging check allowed); front / side / "
+            "the three-size scale search, the fitted extents and anchored faces, the drawer placement; its stored weights, "
+            "half precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "
-            "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error per part.",
+            "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error and mean translation "
+            "error (% of the part's box diagonal) per part.",
             "",
-            "| category | test | ood | front | side | back | rotation front / side / back (deg) |",
-            "|---|---|---|---|---|---|---|",
+            "| category | test | ood | front | side | back | rotation front / side / back (deg) | "
+            "translation front / side / back (% of diagonal) |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         for c in CATEGORY_ORDER:
             r, o = binned.get(c), ood.get(c)
@@ -816,7 +818,11 @@ def main() -> int:
             rot = " / ".join(
                 cells(vb[b]["parts"]["rotation_deg"]["mean"], "{:.1f}") if b in vb else "-" for b in ("front", "side", "back")
             )
-            out.append(f"| {c} | {success_cell(r)} | {success_cell(o)} | " + " | ".join(cell_) + f" | {rot} |")
+            trans = " / ".join(
+                cells([100 * t for t in vb[b]["parts"]["translation_norm"]["mean"]], "{:.1f}") if b in vb else "-"
+                for b in ("front", "side", "back")
+            )
+            out.append(f"| {c} | {success_cell(r)} | {success_cell(o)} | " + " | ".join(cell_) + f" | {rot} | {trans} |")
         out.append("")
 
     # ------------------------------------------------------------------------------ other sizes

@@ -93,10 +93,12 @@ def set_defaults(
     align_faces: list[str] | None = None,
     wide_scale_search: list[str] | None = None,
     fit_extents: list[str] | None = None,
+    anchor_faces: list[str] | None = None,
 ) -> None:
     """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
-    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes``, ``align_faces``, ``wide_scale_search`` and
-    ``fit_extents`` likewise when those lists are given; the other defaults (``denoise_above_m``) are kept."""
+    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes``, ``align_faces``, ``wide_scale_search``,
+    ``fit_extents`` and ``anchor_faces`` likewise when those lists are given; the other defaults
+    (``denoise_above_m``) are kept."""
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
         info.setdefault("defaults", {}).update(
@@ -108,6 +110,7 @@ def set_defaults(
         align_faces=align_faces,
         wide_scale_search=wide_scale_search,
         fit_extents=fit_extents,
+        anchor_faces=anchor_faces,
     )
     for key, cats in lists.items():
         if cats is not None:
@@ -117,7 +120,7 @@ def set_defaults(
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``
     (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
-    ``wide_scale_search`` / ``fit_extents``)."""
+    ``wide_scale_search`` / ``fit_extents`` / ``anchor_faces``)."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
@@ -135,7 +138,7 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
 
 def set_run_defaults(runs: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
-    ``wide_scale_search`` / ``fit_extents``, when given) into
+    ``wide_scale_search`` / ``fit_extents`` / ``anchor_faces``, when given) into
     ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
@@ -205,6 +208,14 @@ def main() -> int:
         help="the categories whose models set the box axes a view sees whole from their points by default "
         "(info.defaults.fit_extents; docs/results.md has the measurements); others get it off; omitted: left as it is",
     )
+    ap.add_argument(
+        "--anchor-faces",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help="the categories whose models anchor the root part's faced faces to its points by default "
+        "(info.defaults.anchor_faces; docs/results.md has the measurements); others get it off; omitted: left as it is",
+    )
     args = ap.parse_args()
     lists = dict(
         remove_plane=args.remove_plane,
@@ -212,6 +223,7 @@ def main() -> int:
         align_faces=args.align_faces,
         wide_scale_search=args.wide_scale_search,
         fit_extents=args.fit_extents,
+        anchor_faces=args.anchor_faces,
     )
     dest = pretrained_dir()
     if args.figures_only:

@@ -23,7 +23,8 @@
 # boxes to hold their points (ucope.voting.grow_to_points), ALIGN_CATS align their part rotations to the
 # normals of their flat faces (ucope.voting.align_parts_to_faces), WIDE_CATS search three scales where the
 # first estimate scores low (Estimator(wide_scale_search=True)), FIT_CATS set the box axes a view sees whole
-# from their points (ucope.voting.fit_seen_extents; the seen-extent tables are measured by `ucope train`).
+# from their points (ucope.voting.fit_seen_extents), ANCHOR_CATS put the root part's faces that the camera faces
+# where its points put them (ucope.voting.anchor_faced_faces; both tables are measured by `ucope train`).
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
 # ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
@@ -50,6 +51,7 @@ GROW_CATS=${GROW_CATS-"dishwasher drawer laptop_rigid camera"}  # boxes grown to
 ALIGN_CATS=${ALIGN_CATS-"camera dishwasher drawer"}  # rotations aligned to the faces (docs/results.md)
 WIDE_CATS=${WIDE_CATS-"eyeglasses laptop camera bottle mug"}  # the scale search at 0.8, 1 and 1.25x the typical size (docs/results.md)
 FIT_CATS=${FIT_CATS-"dishwasher camera bottle laptop_rigid"}  # box axes a view sees whole set from their points (docs/results.md)
+ANCHOR_CATS=${ANCHOR_CATS-"eyeglasses laptop_rigid"}  # the root part's faced faces anchored to its points (docs/results.md)
 OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
@@ -189,7 +191,7 @@ calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and sc
   esac
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS
   if [[ " $DENOISE_CATS " == *" $c "* ]]; then
     "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
   fi
@@ -284,7 +286,7 @@ if [ "$PACKAGE" = 1 ]; then
   # stored weights, float16 where the check allowed it).
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS
   for c in $CATS; do
     rm -f "$WORK/reports/$c.json"
     "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet

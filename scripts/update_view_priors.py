@@ -8,8 +8,8 @@
 :func:`ucope.priors.measure_priors`) with all the others. This script adds them to a model trained before
 they existed, leaving every other prior, the weights and the model card alone, so that its predictions
 change only where :func:`ucope.voting.kinematic.carry_upright` re-places a part (or, with the seen extents,
-where ``fit_extents`` is on: :func:`ucope.voting.fit_seen_extents`). ``--seen-extent-only`` writes the
-seen extents alone and records them in ``info.seen_extent_from``.
+where ``fit_extents`` / ``anchor_faces`` are on). ``--seen-extent-only`` writes the seen extents and faced gaps
+alone and records them in ``info.seen_extent_from``.
 ``DATA`` is a data set of the model's category made by ``ucope generate`` (training split). The JSON is
 rewritten atomically; ``info.view_priors_from`` records the data set and how many views were used.
 """
@@ -27,7 +27,7 @@ from ucope.data.dataset import load_dataset  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.priors import measure_priors  # noqa: E402
 
-PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg", "seen_extent")
+PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg", "seen_extent", "faced_gap")
 JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child")
 
 
@@ -37,7 +37,11 @@ def main(argv=None) -> int:
     ap.add_argument("--data", required=True, help="training views of the model's category (ucope generate)")
     ap.add_argument("--num", type=int, default=2000, help="at most this many views, evenly spaced")
     ap.add_argument("--radius", action="store_true", help="also the typical cloud radii (radius_typical_m, for rescaling)")
-    ap.add_argument("--seen-extent-only", action="store_true", help="write only the seen-extent tables (PartPrior.seen_extent)")
+    ap.add_argument(
+        "--seen-extent-only",
+        action="store_true",
+        help="write only the seen-extent and faced-gap tables (PartPrior.seen_extent, faced_gap)",
+    )
     args = ap.parse_args(argv)
     meta = read_json(args.model)
     pri = meta["config"]["priors"]
@@ -47,7 +51,7 @@ def main(argv=None) -> int:
         print(f"error: {args.data} holds {have!r} views, the model is a {pri['category']!r} model", file=sys.stderr)
         return 2
     new = measure_priors(ds, pri["category"], ds.meta["structure"], max_samples=args.num, template_samples=1).to_dict()
-    part_fields = ("seen_extent",) if args.seen_extent_only else PART_FIELDS
+    part_fields = ("seen_extent", "faced_gap") if args.seen_extent_only else PART_FIELDS
     for old, fresh in zip(pri["parts"], new["parts"], strict=True):
         old.update({k: fresh[k] for k in part_fields})
     for old, fresh in zip(pri["joints"], new["joints"], strict=True):

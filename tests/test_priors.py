@@ -15,6 +15,7 @@ from ucope.priors import (
     CategoryPriors,
     JointPrior,
     PartPrior,
+    faced_gap_statistics,
     measure_priors,
     pivot_offsets,
     placement_offsets,
@@ -204,3 +205,23 @@ def test_seen_extents_are_ordered_percentiles_of_what_the_views_saw_and_round_tr
         PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), seen_extent=[[[-1.0, 1.0, 1.0]] * SEEN_PATTERNS] * 3)
     with pytest.raises(InputError, match="seen_extent"):
         PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), seen_extent=[[["x", 1.0, 1.0]] * SEEN_PATTERNS] * 3)
+
+
+def test_faced_gaps_are_small_for_the_faces_the_camera_faces_and_round_trip():
+    """The laptop base's top (its + y face, which the cameras above look down on) shows its points right at the
+    face: a gap of a few millimetres per box diagonal; the base's bottom is never faced; the JSON form
+    round-trips (null for NaN)."""
+    samples = _samples("laptop", 24)
+    gap = faced_gap_statistics(samples, 2, min_views=3)
+    assert gap.shape == (2, 3, 2, 3)
+    top = gap[0, 1, 1]
+    assert np.all(np.isfinite(top)) and top[0] <= top[1] <= top[2] and abs(top[1]) < 0.03
+    assert np.isnan(gap[0, 1, 0]).all()  # the bottom face: the camera is never below the base
+    pri = measure_priors(samples, "laptop", _structure("laptop"))
+    back = CategoryPriors.from_dict(json.loads(json.dumps(pri.to_dict())), pri.tensors())
+    np.testing.assert_array_equal(back.faced_gap, pri.faced_gap)
+    assert replace(pri, parts=tuple(replace(p, faced_gap=None) for p in pri.parts)).faced_gap is None
+    with pytest.raises(InputError, match="faced_gap"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), faced_gap=[[[0.0, 0.0, 0.0]] * 3] * 3)
+    with pytest.raises(InputError, match="faced_gap"):
+        PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), faced_gap=[[[float("inf"), 0.0, 0.0]] * 2] * 3)

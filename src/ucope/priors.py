@@ -8,7 +8,8 @@ that made its data.
 
 * :class:`PartPrior`: a part's name, symmetry, vote range and mean size, the part axis (if any) that
   the training views hold upright (its direction in the camera frame and the cone it stays in), and how
-  much of each box axis the training views saw, per face pattern (:func:`seen_extent_statistics`);
+  much of each box axis the training views saw, per face pattern (:func:`seen_extent_statistics`), and how
+  far its points stop short of the face the camera faces (:func:`faced_gap_statistics`);
 * :class:`JointPrior`: a joint's type, parent and child, canonical axis in the parent frame, state
   limits, prismatic zero offset, where its two parts' centres sit relative to each other and where a
   revolute axis passes in each part's unit box;
@@ -46,6 +47,7 @@ __all__ = [
     "shape_template_points",
     "cloud_radius",
     "seen_extent_statistics",
+    "faced_gap_statistics",
     "SEEN_QUANTILE",
     "SEEN_MAX_OCCLUDED",
     "SEEN_MIN_VIEWS",
@@ -78,6 +80,24 @@ def _finite(values, name: str, positive: bool = False) -> np.ndarray:
     return arr
 
 
+def _nan_table(values, shape: tuple[int, int, int], name: str, nonnegative: bool = False) -> tuple:
+    """A nested tuple of floats of ``shape`` from nested sequences (``None`` or NaN: not measured), or
+    :class:`InputError` naming ``name`` on another shape, an infinite or (``nonnegative``) a negative entry."""
+    try:
+        table = np.array([[[np.nan if v is None else v for v in row] for row in ax] for ax in values], np.float64)
+    except (TypeError, ValueError):
+        table = np.zeros(0)
+    if table.shape != shape or np.isinf(table).any() or (nonnegative and (table < 0).any()):
+        what = "ratios >= 0" if nonnegative else "finite numbers"
+        raise InputError(f"{name} must be {' x '.join(map(str, shape))} {what} (NaN or null: not measured)")
+    return tuple(tuple(tuple(float(v) for v in row) for row in ax) for ax in table)
+
+
+def _nan_table_json(table: tuple | None) -> list | None:
+    """The JSON form of a :func:`_nan_table` (``null`` for NaN), or ``None``."""
+    return None if table is None else [[[None if math.isnan(v) else v for v in row] for row in ax] for ax in table]
+
+
 @dataclass(frozen=True)
 class PartPrior:
     """One part of a category.
@@ -102,6 +122,11 @@ class PartPrior:
             its box extent, :func:`seen_extent_statistics`); NaN (``null`` in JSON) where a pattern had fewer
             than :data:`SEEN_MIN_VIEWS` views; ``None`` when not measured. Used by
             :func:`ucope.voting.fit_seen_extents`.
+        faced_gap: ``(3, 2, 3)`` per part axis and faced side (- then +: the face the camera lies beyond) the
+            10th, 50th and 90th percentiles over the training views of the gap between that face of the box
+            and the part's points (their :data:`SEEN_QUANTILE` extreme towards the camera), in part box
+            diagonals (:func:`faced_gap_statistics`); NaN (``null``) where fewer than :data:`SEEN_MIN_VIEWS`
+            views; ``None`` when not measured. Used by :func:`ucope.voting.anchor_faced_faces`.
     """
 
     name: str
@@ -112,23 +137,17 @@ class PartPrior:
     upright_in_cam: tuple[float, float, float] | None = None
     upright_cone_deg: float | None = None
     seen_extent: tuple | None = field(default=None, compare=False)
+    faced_gap: tuple | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         parse_symmetry(self.symmetry)
         if self.seen_extent is not None:
             from .geometry.boxes import SEEN_PATTERNS
 
-            try:
-                table = np.array(
-                    [[[np.nan if v is None else v for v in row] for row in ax] for ax in self.seen_extent], np.float64
-                )
-            except (TypeError, ValueError):
-                table = np.zeros(0)
-            if table.shape != (3, SEEN_PATTERNS, 3) or np.isinf(table).any() or (table < 0).any():
-                raise InputError(
-                    f"part {self.name!r}: seen_extent must be 3 x {SEEN_PATTERNS} x 3 ratios >= 0 (NaN or null: not measured)"
-                )
-            object.__setattr__(self, "seen_extent", tuple(tuple(tuple(float(v) for v in row) for row in ax) for ax in table))
+            table = _nan_table(self.seen_extent, (3, SEEN_PATTERNS, 3), f"part {self.name!r}: seen_extent", nonnegative=True)
+            object.__setattr__(self, "seen_extent", table)
+        if self.faced_gap is not None:
+            object.__setattr__(self, "faced_gap", _nan_table(self.faced_gap, (3, 2, 3), f"part {self.name!r}: faced_gap"))
         object.__setattr__(self, "vote_range_m", float(_finite(self.vote_range_m, f"part {self.name!r} vote_range_m", True)))
         size = _finite(self.mean_size_m, f"part {self.name!r} mean_size_m", True).reshape(-1)
         if size.shape != (3,):
@@ -159,9 +178,8 @@ class PartPrior:
             "upright_axis": self.upright_axis,
             "upright_in_cam": None if self.upright_in_cam is None else list(self.upright_in_cam),
             "upright_cone_deg": self.upright_cone_deg,
-            "seen_extent": None
-            if self.seen_extent is None
-            else [[[None if math.isnan(v) else v for v in row] for row in ax] for ax in self.seen_extent],
+            "seen_extent": _nan_table_json(self.seen_extent),
+            "faced_gap": _nan_table_json(self.faced_gap),
         }
 
 
@@ -377,6 +395,14 @@ class CategoryPriors:
         )
 
     @property
+    def faced_gap(self) -> np.ndarray | None:
+        """``(K, 3, 2, 3)`` float64 :attr:`PartPrior.faced_gap` of every part (NaN for a part without one), or
+        ``None`` when no part has one."""
+        if all(p.faced_gap is None for p in self.parts):
+            return None
+        return np.stack([np.full((3, 2, 3), np.nan) if p.faced_gap is None else np.array(p.faced_gap) for p in self.parts])
+
+    @property
     def joint_axes(self) -> np.ndarray:
         """``(J, 3)`` float64 unit axes, each in its parent's frame."""
         return np.array([j.axis_in_parent for j in self.joints], dtype=np.float64).reshape(-1, 3)
@@ -412,6 +438,7 @@ class CategoryPriors:
                     upright_in_cam=_tuple_or_none(p.get("upright_in_cam")),
                     upright_cone_deg=p.get("upright_cone_deg"),
                     seen_extent=p.get("seen_extent"),
+                    faced_gap=p.get("faced_gap"),
                 )
                 for p in d["parts"]
             )
@@ -612,6 +639,58 @@ def seen_extent_statistics(
     return out
 
 
+def faced_gap_statistics(
+    samples: Sequence[Mapping[str, Any]],
+    num_parts: int,
+    quantile: float = SEEN_QUANTILE,
+    max_occluded: float = SEEN_MAX_OCCLUDED,
+    min_views: int = SEEN_MIN_VIEWS,
+    min_points: int = 30,
+) -> np.ndarray:
+    """``(K, 3, 2, 3)`` how far each part's points stop short of the box face the camera faces.
+
+    For every sample and part with at least ``min_points`` labelled points that other parts' boxes do not
+    hide (at the true poses, as :func:`seen_extent_statistics`), and every axis along which the camera lies
+    beyond a face of the box (side 0: the - face, 1: the + face): the gap from that face to the ``1 -
+    quantile`` extreme of the points towards it, over the part's box diagonal (negative where noise takes
+    points past the face). Returns the 10th, 50th and 90th percentiles per part, axis and side; NaN where
+    fewer than ``min_views`` views."""
+    from .geometry.boxes import occluded_fraction
+
+    K = int(num_parts)
+    gaps, cells = [], []
+    for s in samples:  # one pass per sample; its points are handled with array operations
+        T = np.asarray(s["cam_from_part"], dtype=np.float64)
+        S = np.asarray(s["size_m"], dtype=np.float64)
+        pts = np.asarray(s["points"], dtype=np.float64)
+        lab = np.asarray(s["part_labels"])
+        occ = occluded_fraction(T, S)
+        cam = -np.einsum("kji,kj->ki", T[:, :3, :3], T[:, :3, 3])
+        for k in range(K):  # a handful of parts
+            sel = lab == k
+            if np.count_nonzero(sel) < min_points or occ[k] > max_occluded:
+                continue
+            q = (pts[sel] - T[k, :3, 3]) @ T[k, :3, :3]
+            lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+            half = 0.5 * S[k]
+            faced = np.abs(cam[k]) > half
+            plus = cam[k] > 0
+            gap = np.where(plus, half - hi, half + lo) / np.linalg.norm(S[k])
+            a = np.flatnonzero(faced)
+            gaps.append(gap[a])
+            cells.append((k * 3 + a) * 2 + plus[a])
+    out = np.full((K, 3, 2, 3), np.nan)
+    if not gaps:
+        return out
+    g, c = np.concatenate(gaps), np.concatenate(cells)
+    for cell in np.unique(c):  # at most K * 3 * 2 cells
+        v = g[c == cell]
+        if len(v) >= min_views:
+            k, rest = divmod(int(cell), 6)
+            out[k, rest // 2, rest % 2] = np.percentile(v, [10.0, 50.0, 90.0])
+    return out
+
+
 def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_points: int = TEMPLATE_POINTS) -> np.ndarray:
     """``(P, 3)`` float32 points of ``part`` seen in ``samples``, in its unit box (part frame / extents).
 
@@ -655,8 +734,8 @@ def measure_priors(
     scale = mean cloud radius, the range of :func:`cloud_radius` and its 2nd-98th percentiles, prismatic
     zero offsets and part placements at the true poses (with their spread for prismatic joints), joint
     limits = the declared limits widened to every state seen, revolute pivots in the parts' unit boxes
-    (:func:`pivot_offsets`), the upright axes (:func:`upright_statistics`) and the seen extents
-    (:func:`seen_extent_statistics`).
+    (:func:`pivot_offsets`), the upright axes (:func:`upright_statistics`), the seen extents
+    (:func:`seen_extent_statistics`) and the faced gaps (:func:`faced_gap_statistics`).
     Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
@@ -681,6 +760,7 @@ def measure_priors(
     T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
     upright = upright_statistics(T)
     seen = seen_extent_statistics(picked, K)
+    gaps = faced_gap_statistics(picked, K)
     parts = tuple(
         PartPrior(
             name=nm,
@@ -688,6 +768,7 @@ def measure_priors(
             vote_range_m=float(vote[k]),
             mean_size_m=tuple(mean[k]),
             seen_extent=seen[k],
+            faced_gap=gaps[k],
             **(dict(zip(("upright_axis", "upright_in_cam", "upright_cone_deg"), upright[k], strict=True)) if upright[k] else {}),
         )
         for k, (nm, sym) in enumerate(part_decl)

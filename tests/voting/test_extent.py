@@ -1,4 +1,4 @@
-"""grow_to_points and fit_seen_extents: against plain per-axis references, and their contracts (growth never
+"""grow_to_points, fit_seen_extents and anchor_faced_faces: against plain per-axis references, and their contracts (growth never
 shrinks, thin axes, symmetric parts, few points, labels outside the parts, hidden parts, bad input)."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from tests_support import seen_pattern_reference
 from ucope.errors import InputError
 from ucope.geometry.boxes import SEEN_PATTERNS
 from ucope.geometry.transforms import make_transform, random_rotation
-from ucope.voting import fit_seen_extents, grow_to_points
-from ucope.voting.extent import FIT_MAX_RATIO, FIT_MIN_RATIO, FIT_MIN_SEEN
+from ucope.voting import anchor_faced_faces, fit_seen_extents, grow_to_points
+from ucope.voting.extent import ANCHOR_MAX_SPREAD, FIT_MAX_RATIO, FIT_MIN_RATIO, FIT_MIN_SEEN
 
 
 def joined_reference(local, half, factor):
@@ -290,3 +290,97 @@ def test_fit_bad_input_is_named():
         fit_seen_extents(T, S, pts, lab, table, confidence=np.ones(3))
     with pytest.raises(InputError, match="symmetry"):
         fit_seen_extents(T, S, pts, lab, table, ["none", "y"])
+
+
+# ---------------------------------------------------------------------------------- anchor_faced_faces
+def anchor_reference(T, S, pts, labels, table, parts, keep, q, min_points, max_spread):
+    """Plain loops over parts and axes (no joining test, no hiding neighbours)."""
+    T = np.array(T, float)
+    for k in parts:
+        own = [p for p, lab in zip(pts, labels, strict=True) if lab == k]
+        if len(own) < min_points:
+            continue
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        local = np.array([R.T @ (p - t) for p in own])
+        cam = R.T @ (np.zeros(3) - t)
+        shift = np.zeros(3)
+        for a in range(3):
+            if keep[k, a] or abs(cam[a]) <= S[k, a] / 2:
+                continue
+            side = 1 if cam[a] > 0 else 0
+            lo10, mid, hi90 = table[k, a, side]
+            if not hi90 - lo10 <= max_spread:
+                continue
+            diag = float(np.sqrt(sum(x * x for x in S[k])))
+            if side:
+                face = np.quantile(local[:, a], 1 - q) + mid * diag
+                shift[a] = face - S[k, a] / 2
+            else:
+                face = np.quantile(local[:, a], q) - mid * diag
+                shift[a] = face + S[k, a] / 2
+        T[k, :3, 3] = t + R @ shift
+    return T
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_anchoring_matches_the_plain_reference(seed):
+    rng = np.random.default_rng(seed)
+    T, S, pts, labels = _scene(rng, K=3)
+    table = np.sort(rng.uniform(-0.02, 0.04, (3, 3, 2, 3)), axis=-1)
+    table[rng.uniform(size=(3, 3, 2)) < 0.2] = np.nan
+    keep = rng.uniform(size=(3, 3)) < 0.2
+    got, moved = anchor_faced_faces(
+        T, S, pts, labels, table, parts=(0, 2), keep=keep, connect_factor=None, max_occluded=1.0, min_points=20
+    )
+    ref = anchor_reference(T, S, pts, labels, table, (0, 2), keep, 0.01, 20, ANCHOR_MAX_SPREAD)
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
+    assert not moved[1].any() and not (moved & keep).any()
+    np.testing.assert_array_equal(got[:, :3, :3], T[:, :3, :3])
+
+
+def test_a_frame_seen_from_behind_gets_its_depth_from_its_back():
+    """A thin box seen from behind and the side (the camera beyond its - z and - x faces) whose voted centre
+    sits 1.5 cm too far along +z: anchored, its - z face goes where its points are, the centre half the extent
+    behind it; x (not measured in the table) stays."""
+    rng = np.random.default_rng(2)
+    Rt = np.eye(3)  # the box's z runs away from the camera (origin), which lies beyond its - z face
+    true = make_transform(Rt, [0.2, 0.02, 0.8])
+    size = np.array([0.14, 0.05, 0.02])
+    pts = _face_points(true, size, rng)
+    voted = true.copy()
+    voted[:3, 3] += Rt @ [0.0, 0.0, 0.015]
+    table = np.full((1, 3, 2, 3), np.nan)
+    table[0, 2, 0] = [0.0, 0.0, 0.01]  # the - z face: no gap between it and the points
+    T, moved = anchor_faced_faces(voted[None], size[None], pts, np.zeros(len(pts), int), table, quantile=0.0)
+    np.testing.assert_array_equal(moved, [[False, False, True]])
+    np.testing.assert_allclose(T[0, :3, 3], true[:3, 3], atol=1e-9)
+    # a spread above max_spread: left where voting put it
+    table[0, 2, 0] = [0.0, 0.0, 0.05]
+    T, moved = anchor_faced_faces(voted[None], size[None], pts, np.zeros(len(pts), int), table)
+    assert not moved.any() and np.array_equal(T[0], voted)
+
+
+def test_anchor_bad_input_is_named():
+    T, S = np.eye(4)[None], np.ones((1, 3))
+    pts, lab = np.zeros((5, 3)), np.zeros(5, int)
+    table = np.zeros((1, 3, 2, 3))
+    with pytest.raises(InputError, match="cam_from_part"):
+        anchor_faced_faces(np.eye(4), S, pts, lab, table)
+    with pytest.raises(InputError, match="size_m"):
+        anchor_faced_faces(T, np.ones((2, 3)), pts, lab, table)
+    with pytest.raises(InputError, match="faced_gap"):
+        anchor_faced_faces(T, S, pts, lab, np.zeros((1, 3, 3, 3)))
+    with pytest.raises(InputError, match="faced_gap"):
+        anchor_faced_faces(T, S, pts, lab, np.full((1, 3, 2, 3), np.inf))
+    with pytest.raises(InputError, match="parts"):
+        anchor_faced_faces(T, S, pts, lab, table, parts=(1,))
+    with pytest.raises(InputError, match="keep"):
+        anchor_faced_faces(T, S, pts, lab, table, keep=np.zeros((2, 3), bool))
+    with pytest.raises(InputError, match="max_spread"):
+        anchor_faced_faces(T, S, pts, lab, table, max_spread=-1.0)
+    with pytest.raises(InputError, match="labels"):
+        anchor_faced_faces(T, S, pts, np.zeros(4, int), table)
+    with pytest.raises(InputError, match="finite"):
+        anchor_faced_faces(T, S, np.full((5, 3), np.nan), lab, table)
+    with pytest.raises(InputError, match="confidence"):
+        anchor_faced_faces(T, S, pts, lab, table, confidence=np.ones(2))

@@ -512,6 +512,13 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "docs/results.md)",
     )
     p.add_argument(
+        "--anchor-faces",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="move the root part's box so that the faces the camera faces sit where its points put them (default: "
+        "the model's own; on for the shipped models where it measured better, docs/results.md)",
+    )
+    p.add_argument(
         "--align-faces",
         action=argparse.BooleanOptionalAction,
         default=None,

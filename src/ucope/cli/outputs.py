@@ -199,6 +199,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         denoise_above_m=denoise,
         grow_boxes=getattr(args, "grow_boxes", None),
         fit_extents=getattr(args, "fit_extents", None),
+        anchor_faces=getattr(args, "anchor_faces", None),
         align_faces=getattr(args, "align_faces", None),
         recrop=not getattr(args, "no_recrop", False),
         scale_search=not getattr(args, "no_scale_search", False),

@@ -365,6 +365,7 @@ def evaluate(
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "grow_boxes": getattr(estimator, "grow_boxes", False),
             "fit_extents": getattr(estimator, "fit_extents", False),
+            "anchor_faces": getattr(estimator, "anchor_faces", False),
             "align_faces": getattr(estimator, "align_faces", False),
             "revolution_factor": getattr(getattr(estimator, "options", None), "revolution_factor", None),
         },

@@ -21,6 +21,8 @@ measured accuracy.
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
 * :func:`fit_seen_extents`: box axes that views like this one see whole, set from the part's points (larger or
   smaller than voted), by the seen-extent percentiles the training views measured.
+* :func:`anchor_faced_faces`: box centres moved so that the faces the camera faces sit where the points put
+  them (the face-to-points gaps the training views measured).
 * :func:`align_to_faces`, :func:`align_parts_to_faces`: rotations turned so that box axes meet the normals of flat faces.
 """
 
@@ -29,7 +31,7 @@ from __future__ import annotations
 from .axis import AxisOptions, choose_axis_sign, fibonacci_sphere, vote_axis
 from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
-from .extent import fit_seen_extents, grow_to_points
+from .extent import anchor_faced_faces, fit_seen_extents, grow_to_points
 from .faces import align_parts_to_faces, align_to_faces
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
@@ -77,6 +79,7 @@ __all__ = [
     "regression_scores",
     "grow_to_points",
     "fit_seen_extents",
+    "anchor_faced_faces",
     "align_to_faces",
     "align_parts_to_faces",
 ]

@@ -51,6 +51,8 @@ __all__ = [
     "FIT_MAX_RATIO",
     "FIT_MIN_SEEN",
     "FIT_MIN_CONFIDENCE",
+    "anchor_faced_faces",
+    "ANCHOR_MAX_SPREAD",
 ]
 
 GROW_QUANTILE = 0.01
@@ -75,6 +77,37 @@ GROW_CONNECT_FACTOR = 8.0
 """Longest step between joined points, in median nearest-neighbour distances of the part's points: 8 kept
 the dishwasher's OOD gain (23 -> 46 % against 47 % with every point) and its outlier and bleed figures
 (67 and 60 % against 67 and 63 % without growing, 30 benchmark views); 3 lost most of the gain (31 %)."""
+
+
+def _checked(cam_from_part, size_m, points, labels) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(T, S, points, labels)`` as float64 copies / arrays after the checks every function here shares:
+    ``(K, 4, 4)`` poses, ``(K, 3)`` positive sizes, ``(P, 3)`` points, ``(P,)`` integer labels, all finite."""
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.array(size_m, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64)
+    lab = np.asarray(labels)
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        raise InputError(f"cam_from_part must have shape (K, 4, 4), got {T.shape}")
+    K = len(T)
+    if S.shape != (K, 3):
+        raise InputError(f"size_m must have shape ({K}, 3) for {K} parts, got {S.shape}")
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points must have shape (P, 3), got {pts.shape}")
+    if lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
+        raise InputError(f"labels must be {len(pts)} integers (one per point), got {lab.dtype} of shape {lab.shape}")
+    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all()):
+        raise InputError("cam_from_part, size_m and points must be finite")
+    if (S <= 0).any():
+        raise InputError(f"size_m must be positive, got {S.tolist()}")
+    return T, S, pts, lab
+
+
+def _checked_confidence(confidence, n: int) -> np.ndarray:
+    """``(n,)`` float64 confidences, or :class:`InputError` naming the wrong shape or a non-finite value."""
+    conf = np.asarray(confidence, dtype=np.float64)
+    if conf.shape != (n,) or not np.isfinite(conf).all():
+        raise InputError(f"confidence must be {n} finite values (one per point), got shape {conf.shape}")
+    return conf
 
 
 def joined_to_box(local: np.ndarray, half: np.ndarray, factor: float) -> np.ndarray:
@@ -138,31 +171,14 @@ def grow_to_points(
         InputError: shapes that do not match, a non-finite pose, size or point, a non-positive size,
             ``quantile`` outside ``[0, 0.5)``, a ``connect_factor`` that is not positive.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.array(size_m, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64)
-    lab = np.asarray(labels)
-    if T.ndim != 3 or T.shape[1:] != (4, 4):
-        raise InputError(f"cam_from_part must have shape (K, 4, 4), got {T.shape}")
+    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
     K = len(T)
-    if S.shape != (K, 3):
-        raise InputError(f"size_m must have shape ({K}, 3) for {K} parts, got {S.shape}")
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise InputError(f"points must have shape (P, 3), got {pts.shape}")
-    if lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
-        raise InputError(f"labels must be {len(pts)} integers (one per point), got {lab.dtype} of shape {lab.shape}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all()):
-        raise InputError("cam_from_part, size_m and points must be finite")
-    if (S <= 0).any():
-        raise InputError(f"size_m must be positive, got {S.tolist()}")
     if not 0.0 <= quantile < 0.5:
         raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
     if connect_factor is not None and not connect_factor > 0:
         raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
     if confidence is not None:
-        conf = np.asarray(confidence, dtype=np.float64)
-        if conf.shape != (len(pts),) or not np.isfinite(conf).all():
-            raise InputError(f"confidence must be {len(pts)} finite values (one per point), got shape {conf.shape}")
+        conf = _checked_confidence(confidence, len(pts))
         lab = np.where(conf >= min_confidence, lab, -1)
     sym = ["none"] * K if symmetry is None else list(symmetry)
     if len(sym) != K:
@@ -225,6 +241,7 @@ def fit_seen_extents(
     connect_factor: float | None = GROW_CONNECT_FACTOR,
     confidence=None,
     min_confidence: float = FIT_MIN_CONFIDENCE,
+    sure_confidence: float = GROW_MIN_CONFIDENCE,
     min_ratio: float = FIT_MIN_RATIO,
     max_ratio: float = FIT_MAX_RATIO,
     min_seen: float = FIT_MIN_SEEN,
@@ -237,10 +254,13 @@ def fit_seen_extents(
     pattern (:func:`ucope.geometry.boxes.seen_pattern`) the percentiles of the seen ratio (the robust range
     of the part's points along the axis over the box's extent, :attr:`ucope.priors.PartPrior.seen_extent`).
     Where this view's pattern (from the voted pose and size) saw at least ``min_ratio`` in 90 % of the
-    training views and at most ``max_ratio`` in 90 %, the axis's extent becomes the points' robust range
-    (``quantile`` to ``1 - quantile``) over the median ratio, and the box centre moves to the middle of that
-    range along the axis: larger or smaller than voted. An object whose proportions the training never had (a
-    countertop dishwasher half as tall as it is wide) is measured rather than pulled to the training sizes.
+    training views and at most ``max_ratio`` in 90 %, the axis's extent is held between what the points sure to
+    be the object span and what the plausible ones span (each robust range, ``quantile`` to ``1 - quantile``,
+    over the median ratio): a voted extent outside that interval is set to its nearer end, and the box centre
+    moves to the middle of the range that set it. Larger or smaller than voted, then; outliers next to the
+    object (doubted by the segmentation) cannot widen a box, nor real points it doubts narrow one. An object
+    whose proportions the training never had (a countertop dishwasher half as tall as it is wide) is measured
+    rather than pulled to the training sizes.
     Left alone: parts a neighbour's box hides (more than ``max_occluded`` of their faced points,
     :func:`ucope.geometry.boxes.occluded_fraction`), the x and z axes of parts symmetric about y, parts with
     fewer than ``min_points`` points (or joined to their box, :func:`joined_to_box`), and axes whose new
@@ -254,7 +274,10 @@ def fit_seen_extents(
         seen_extent: ``(K, 3, SEEN_PATTERNS, 3)`` per part, axis and face pattern the 10th, 50th and 90th
             percentiles of the seen ratio, NaN where not measured
             (:attr:`ucope.priors.CategoryPriors.seen_extent`).
-        symmetry, min_points, connect_factor, confidence, min_confidence: as :func:`grow_to_points`.
+        symmetry, min_points, connect_factor: as :func:`grow_to_points`.
+        confidence: ``(P,)`` the probability that each point is the object, not the background (``None``:
+            every labelled point is sure). Points at ``sure_confidence`` or above are sure, points at
+            ``min_confidence`` or above plausible; the others do not count.
 
     Returns:
         ``(cam_from_part, size_m, fitted)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays (rotations
@@ -265,23 +288,8 @@ def fit_seen_extents(
             negative or non-finite table entry, ``quantile`` outside ``[0, 0.5)``, ratios that are not
             positive.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.array(size_m, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64)
-    lab = np.asarray(labels)
-    if T.ndim != 3 or T.shape[1:] != (4, 4):
-        raise InputError(f"cam_from_part must have shape (K, 4, 4), got {T.shape}")
+    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
     K = len(T)
-    if S.shape != (K, 3):
-        raise InputError(f"size_m must have shape ({K}, 3) for {K} parts, got {S.shape}")
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise InputError(f"points must have shape (P, 3), got {pts.shape}")
-    if lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
-        raise InputError(f"labels must be {len(pts)} integers (one per point), got {lab.dtype} of shape {lab.shape}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all()):
-        raise InputError("cam_from_part, size_m and points must be finite")
-    if (S <= 0).any():
-        raise InputError(f"size_m must be positive, got {S.tolist()}")
     table = np.asarray(seen_extent, dtype=np.float64)
     if table.shape != (K, 3, SEEN_PATTERNS, 3):
         raise InputError(f"seen_extent must have shape ({K}, 3, {SEEN_PATTERNS}, 3), got {table.shape}")
@@ -293,10 +301,10 @@ def fit_seen_extents(
         raise InputError(f"min_ratio, max_ratio and min_seen must be positive, got {min_ratio!r}, {max_ratio!r}, {min_seen!r}")
     if connect_factor is not None and not connect_factor > 0:
         raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
+    sure = lab
     if confidence is not None:
-        conf = np.asarray(confidence, dtype=np.float64)
-        if conf.shape != (len(pts),) or not np.isfinite(conf).all():
-            raise InputError(f"confidence must be {len(pts)} finite values (one per point), got shape {conf.shape}")
+        conf = _checked_confidence(confidence, len(pts))
+        sure = np.where(conf >= sure_confidence, lab, -1)
         lab = np.where(conf >= min_confidence, lab, -1)
     sym = ["none"] * K if symmetry is None else list(symmetry)
     if len(sym) != K:
@@ -310,37 +318,128 @@ def fit_seen_extents(
         return T, S, fitted
     fit &= (occluded_fraction(T, S) <= max_occluded)[:, None]
     for k in np.flatnonzero(fit.any(1)):  # a handful of parts; the point work is vectorised
+        R, t = T[k, :3, :3], T[k, :3, 3]
+        ranges = []
+        for chosen in (sure, lab):  # the sure points (the least extent), the plausible ones (the most)
+            sel = chosen == k
+            q = (pts[sel] - t) @ R  # the part's points in its voted frame
+            if connect_factor is not None and len(q):
+                q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
+            ranges.append(np.quantile(q, [quantile, 1.0 - quantile], axis=0) if len(q) >= min_points else None)
+        if ranges[1] is None:
+            continue
+        if ranges[0] is None:
+            ranges[0] = ranges[1]
+        med = np.where(fit[k], stats[k, :, 1], 1.0)
+        least, most = (np.diff(r, axis=0)[0] / med for r in ranges)
+        least = np.minimum(least, most)
+        new = np.clip(S[k], least, most)
+        mid = np.where(S[k] > most, ranges[1].mean(0), np.where(S[k] < least, ranges[0].mean(0), 0.0))
+        a = fit[k] & (new >= min_seen * S[k]) & (new != S[k])
+        S[k] = np.where(a, new, S[k])
+        T[k, :3, 3] = t + R @ np.where(a, mid, 0.0)
+        fitted[k] = a
+    return T, S, fitted
+
+
+ANCHOR_MAX_SPREAD = 0.03
+"""A faced face is anchored to the points only where the training views' gap between it and the points varied
+by at most this (the 10th to 90th percentile, in part box diagonals)."""
+
+
+def anchor_faced_faces(
+    cam_from_part,
+    size_m,
+    points,
+    labels,
+    faced_gap,
+    parts: Sequence[int] | None = None,
+    keep=None,
+    quantile: float = SEEN_QUANTILE,
+    min_points: int = GROW_MIN_POINTS,
+    connect_factor: float | None = GROW_CONNECT_FACTOR,
+    confidence=None,
+    min_confidence: float = FIT_MIN_CONFIDENCE,
+    max_spread: float = ANCHOR_MAX_SPREAD,
+    max_occluded: float = SEEN_MAX_OCCLUDED,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Box centres moved so that the faces the camera faces sit where the part's points put them.
+
+    A part's voted centre can sit off along an axis it is not seen whole along (the depth of a spectacle frame
+    seen from behind: its points show only its back), while the face turned to the camera is in plain view.
+    Along every axis where the camera lies beyond a face of the voted box (its box-frame coordinate beyond half
+    the extent), and where the training views' gap between that face and the points (``faced_gap``:
+    :attr:`ucope.priors.PartPrior.faced_gap`) varied by at most ``max_spread`` part diagonals, the face is put
+    at the points' extreme towards the camera (their ``1 - quantile`` quantile) plus the median gap, and the
+    centre half the voted extent behind it. Sizes and rotations are kept.
+    Left alone: parts not in ``parts``, axes marked in ``keep``, parts a neighbour's box hides (more than
+    ``max_occluded``, :func:`ucope.geometry.boxes.occluded_fraction`), parts with fewer than ``min_points``
+    points (or joined to their box, :func:`joined_to_box`).
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` the parts' poses (camera frame, metres).
+        size_m: ``(K, 3)`` their box extents (metres, > 0).
+        points: ``(P, 3)`` the cloud the labels belong to (camera frame, metres).
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        faced_gap: ``(K, 3, 2, 3)`` per part, axis and faced side (-, +) the 10th, 50th and 90th percentiles
+            of the gap, NaN where not measured (:attr:`ucope.priors.CategoryPriors.faced_gap`).
+        parts: the parts that may move (``None``: all).
+        keep: ``(K, 3)`` bool, axes to leave alone (those :func:`fit_seen_extents` set); ``None``: none.
+        confidence, min_confidence, connect_factor: as :func:`fit_seen_extents`.
+
+    Returns:
+        ``(cam_from_part, anchored)``: new ``(K, 4, 4)`` float64 poses and ``(K, 3)`` bool, which axes moved.
+
+    Raises:
+        InputError: shapes that do not match, non-finite poses, sizes, points or table entries (other than
+            NaN), a non-positive size, a part index outside ``[0, K)``, ``quantile`` outside ``[0, 0.5)``,
+            a negative ``max_spread``.
+    """
+    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
+    K = len(T)
+    table = np.asarray(faced_gap, dtype=np.float64)
+    if table.shape != (K, 3, 2, 3) or np.isinf(table).any():
+        raise InputError(f"faced_gap must have shape ({K}, 3, 2, 3) with finite entries (NaN: not measured), got {table.shape}")
+    movable = np.zeros(K, dtype=bool)
+    for k in range(K) if parts is None else parts:
+        if not 0 <= int(k) < K:
+            raise InputError(f"parts must name parts in [0, {K}), got {list(parts)}")
+        movable[int(k)] = True
+    hold = np.zeros((K, 3), dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    if hold.shape != (K, 3):
+        raise InputError(f"keep must have shape ({K}, 3), got {hold.shape}")
+    if not 0.0 <= quantile < 0.5:
+        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    if not max_spread >= 0:
+        raise InputError(f"max_spread must be >= 0, got {max_spread!r}")
+    if connect_factor is not None and not connect_factor > 0:
+        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
+    if confidence is not None:
+        conf = _checked_confidence(confidence, len(pts))
+        lab = np.where(conf >= min_confidence, lab, -1)
+    cam = -np.einsum("kji,kj->ki", T[:, :3, :3], T[:, :3, 3])  # the camera in each part's frame
+    plus = (cam > 0).astype(np.int64)
+    stats = table[np.arange(K)[:, None], np.arange(3)[None, :], plus]  # (K, 3, 3): the faced side's gaps
+    with np.errstate(invalid="ignore"):  # NaN (not measured) compares False
+        move = (np.abs(cam) > 0.5 * S) & (stats[..., 2] - stats[..., 0] <= max_spread) & movable[:, None] & ~hold
+    anchored = np.zeros((K, 3), dtype=bool)
+    if not move.any():
+        return T, anchored
+    move &= (occluded_fraction(T, S) <= max_occluded)[:, None]
+    for k in np.flatnonzero(move.any(1)):  # a handful of parts; the point work is vectorised
         sel = lab == k
         if np.count_nonzero(sel) < min_points:
             continue
         R, t = T[k, :3, :3], T[k, :3, 3]
-        q = (pts[sel] - t) @ R  # the part's points in its voted frame
+        q = (pts[sel] - t) @ R
         if connect_factor is not None:
             q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
             if len(q) < min_points:
                 continue
         lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
-        new = (hi - lo) / np.where(fit[k], stats[k, :, 1], 1.0)
-        a = fit[k] & (new >= min_seen * S[k])
-        S[k] = np.where(a, new, S[k])
-        T[k, :3, 3] = t + R @ np.where(a, 0.5 * (lo + hi), 0.0)
-        fitted[k] = a
-    return T, S, fitted
-    fit &= (occluded_fraction(T, S) <= max_occluded)[:, None]
-    for k in np.flatnonzero(fit.any(1)):  # a handful of parts; the point work is vectorised
-        sel = lab == k
-        if np.count_nonzero(sel) < min_points:
-            continue
-        R, t = T[k, :3, :3], T[k, :3, 3]
-        q = (pts[sel] - t) @ R  # the part's points in its voted frame
-        if connect_factor is not None:
-            q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
-            if len(q) < min_points:
-                continue
-        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
-        new = (hi - lo) / np.where(fit[k], stats[k, :, 1], 1.0)
-        a = fit[k] & (new >= min_seen * S[k])
-        S[k] = np.where(a, new, S[k])
-        T[k, :3, 3] = t + R @ np.where(a, 0.5 * (lo + hi), 0.0)
-        fitted[k] = a
-    return T, S, fitted
+        sign = np.where(plus[k] == 1, 1.0, -1.0)
+        face = np.where(plus[k] == 1, hi, lo) + sign * stats[k, :, 1] * np.linalg.norm(S[k])
+        shift = np.where(move[k], face - sign * 0.5 * S[k], 0.0)
+        T[k, :3, 3] = t + R @ shift
+        anchored[k] = move[k]
+    return T, anchored
