@@ -59,7 +59,8 @@ def main(argv=None) -> int:
     if args.radius:
         pri["radius_typical_m"] = new["radius_typical_m"]
     key = "seen_extent_from" if args.seen_extent_only else "view_priors_from"
-    meta.setdefault("info", {})[key] = {"data": str(args.data), "num_samples": new["num_samples"]}
+    made = {k: ds.meta.get(k) for k in ("split", "seed", "num", "generator_version")}  # how to make the views again
+    meta.setdefault("info", {})[key] = {"data": Path(args.data).name, **made, "num_samples": new["num_samples"]}
     atomic_write_json(args.model, meta)
     for p in pri["parts"]:
         cells = sum(row[0] is not None for ax in p["seen_extent"] for row in ax)

@@ -599,6 +599,17 @@ class Estimator:
                     timings = {key: timings[key] + second.timings[key] for key in timings}
         return _Estimate(final, labels, planes, timings, warnings)
 
+    @staticmethod
+    def _noise_m(pts: np.ndarray, scale: float, memo: dict | None, key) -> float:
+        """Surface noise (metres of the input) of a pass's cloud ``pts`` (scaled by ``scale``), kept in ``memo``
+        under ``key``: the passes of one prediction on the same points share it."""
+        if memo is not None and key in memo:
+            return memo[key]
+        noise = surface_noise(pts) / scale
+        if memo is not None:
+            memo[key] = noise
+        return noise
+
     def _pass(
         self,
         pts: np.ndarray,
@@ -641,12 +652,13 @@ class Estimator:
             plane = None
         input_warnings += self._extent_warnings(pts, units)  # about the cloud: kept from a first pass
         scale, centre = self.input_scale(pts, normalise) if rescale else (1.0, np.zeros(3))
-        key = None
+        key = noise_key = None
         if memo is not None:
             digest = hashlib.blake2b(np.ascontiguousarray(pts_in).tobytes(), digest_size=16)
             if nrm is not None:
                 digest.update(np.ascontiguousarray(nrm).tobytes())
             key = (digest.hexdigest(), num_input, scale, centre.tobytes())
+            noise_key = ("surface_noise", digest.hexdigest())  # the same points before scaling, whatever the scale
             if key in memo:
                 return replace(memo[key], timings=dict.fromkeys(memo[key].timings, 0.0))
         if scale != 1.0:
@@ -753,7 +765,7 @@ class Estimator:
             self.anchor_faces
             and self.faced_gap is not None
             and num_input >= ANCHOR_MIN_INPUT
-            and surface_noise(pts) / scale <= ANCHOR_MAX_NOISE_M  # the pass's cloud, back in the input's metres
+            and self._noise_m(pts, scale, memo, noise_key) <= ANCHOR_MAX_NOISE_M
         ):  # the root only: a child's points end at a seam
             v = dict(v)
             v["cam_from_part"], _ = anchor_faced_faces(
