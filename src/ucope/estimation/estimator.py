@@ -24,8 +24,9 @@ default; the timings are the sums). Where the result's calibrated score is below
 the whole is repeated on the cloud normalised to the model's typical size (``scale_search``; at 0.8, 1 and
 1.25x it with ``wide_scale_search``) and the highest-scored estimate stands. In every run, after the part
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
-set from the points (``fit_extents``), and each prismatic child is put where its parent always held it across
-the joint's axis (``place_children``).
+set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
+are (``anchor_faces``), and each prismatic child is put where its parent always held it across the joint's
+axis (``place_children``).
 
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
 """
@@ -120,8 +121,8 @@ worth it: the second pass would only see fewer points.)"""
 FIT_EXTENTS_BELOW = 0.9
 """With ``fit_extents``, only parts whose calibrated score is below this get axes set from their points; parts the
 calibration is sure of keep their voted boxes (a model without a calibration fits every part). The shipped
-dishwasher, 200 test and 100 OOD views: every part 80 / 58 % success, parts below 0.9 82 / 57 %, below 0.8
-82 / 51 %, fit off 82.5 / 48 %."""
+dishwasher, 200 test and 100 OOD views, with the rule's first version (docs/results.md): every part 80 / 58 %
+success, parts below 0.9 82 / 57 %, below 0.8 82 / 51 %, fit off 82.5 / 48 %."""
 
 FIT_EXTENTS_MIN_INPUT = 1000
 """With ``fit_extents``, a cloud of fewer points than this keeps its voted boxes: the seen ratios were measured on
@@ -734,18 +735,13 @@ class Estimator:
             v, labels, seg_prob, p_net, num_input, [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
         )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
+        # the object, not the background, as the segmentation sees it (models with a background class)
+        object_conf = 1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None
         if self.grow_boxes:  # after the scores: the calibration's box-fit features see the voted boxes
             v = dict(v)
             v["cam_from_part"], v["size_m"], _ = grow_to_points(
-                v["cam_from_part"],
-                v["size_m"],
-                p_net,
-                labels,
-                [p.symmetry for p in self.priors.parts],
-                # the object, not the background, as the segmentation sees it (models with a background class)
-                confidence=1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None,
+                v["cam_from_part"], v["size_m"], p_net, labels, [p.symmetry for p in self.priors.parts], confidence=object_conf
             )
-        object_conf = 1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None
         fitted = np.zeros((K, 3), dtype=bool)
         if self.fit_extents and self.seen_extent is not None and num_input >= FIT_EXTENTS_MIN_INPUT:  # after growth
             v = dict(v)

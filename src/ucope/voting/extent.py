@@ -24,6 +24,11 @@ partial view need not reach the far faces) and never touches:
 Measured on the OOD split (docs/results.md) and the robustness benchmark (docs/robustness.md); the
 estimator applies it after the part scores are computed, where a model's ``grow_boxes`` default says so.
 
+Growth never shrinks. :func:`fit_seen_extents` sets the axes that views with this face pattern saw whole in the
+training (``PartPrior.seen_extent``) from the points, larger or smaller than voted, and
+:func:`anchor_faced_faces` puts the faces the camera faces where the points are (``PartPrior.faced_gap``); both
+leave parts another part's box hides alone (:func:`ucope.geometry.boxes.occluded_fraction`).
+
 Frames and units: points and poses in the camera frame, metres; ``cam_from_part`` ``(K, 4, 4)`` as in
 docs/conventions.md (the box is centred on the part frame's origin, aligned with its axes).
 """
@@ -221,8 +226,9 @@ its box)."""
 FIT_MIN_CONFIDENCE = 0.5
 """Points whose confidence (the probability that they are the object, not the background) is below this do not
 count: lower than growth's :data:`GROW_MIN_CONFIDENCE`, since leaving a part's real points out shrinks a fitted
-box where it only keeps a grown one. The bottle's OOD views (shipped model, 100 views): 93 % success without
-fitting, 81 % fitting with 0.9, 96 % with 0.5."""
+box where it only keeps a grown one. The bottle's OOD views (shipped model, 100 views; the rule's first version,
+the plausible points alone): 93 % success without fitting, 81 % fitting with 0.9, 96 % with 0.5. The points at
+:data:`GROW_MIN_CONFIDENCE` or above bound the extent from below (``sure_confidence``)."""
 
 FIT_MIN_SEEN = 0.5
 """An axis whose fitted extent would fall below this times its voted extent keeps the voted one: the points
