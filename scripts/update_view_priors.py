@@ -1,15 +1,15 @@
 """Measure a model's view priors on training views and write them into its JSON.
 
     python scripts/update_view_priors.py --model src/ucope/pretrained/laptop.json --data DATA [--num 2000]
-    python scripts/update_view_priors.py --model ... --data DATA --seen-extent-only
+    python scripts/update_view_priors.py --model ... --data DATA --extent-only
 
 ``ucope train`` measures these priors (``PartPrior.upright_*`` and ``seen_extent``,
 ``JointPrior.pivot_in_parent`` / ``pivot_in_child``; with ``--radius`` also ``radius_typical_m``:
 :func:`ucope.priors.measure_priors`) with all the others. This script adds them to a model trained before
 they existed, leaving every other prior, the weights and the model card alone, so that its predictions
 change only where :func:`ucope.voting.kinematic.carry_upright` re-places a part (or, with the seen extents,
-where ``fit_extents`` / ``anchor_faces`` are on). ``--seen-extent-only`` writes the seen extents and faced gaps
-alone and records them in ``info.seen_extent_from``.
+where ``fit_extents`` / ``anchor_faces`` are on). ``--extent-only`` writes the seen extents, faced gaps and
+child size ratios alone and records them in ``info.seen_extent_from``.
 ``DATA`` is a data set of the model's category made by ``ucope generate`` (training split). The JSON is
 rewritten atomically; ``info.view_priors_from`` records the data set and how many views were used.
 """
@@ -28,7 +28,8 @@ from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.priors import measure_priors  # noqa: E402
 
 PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg", "seen_extent", "faced_gap")
-JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child")
+JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child", "child_size_ratio", "child_size_spread")
+EXTENT_JOINT_FIELDS = ("child_size_ratio", "child_size_spread")
 
 
 def main(argv=None) -> int:
@@ -38,9 +39,10 @@ def main(argv=None) -> int:
     ap.add_argument("--num", type=int, default=2000, help="at most this many views, evenly spaced")
     ap.add_argument("--radius", action="store_true", help="also the typical cloud radii (radius_typical_m, for rescaling)")
     ap.add_argument(
-        "--seen-extent-only",
+        "--extent-only",
         action="store_true",
-        help="write only the seen-extent and faced-gap tables (PartPrior.seen_extent, faced_gap)",
+        help="write only the seen-extent and faced-gap tables and the child size ratios (PartPrior.seen_extent, "
+        "faced_gap, JointPrior.child_size_ratio / child_size_spread)",
     )
     args = ap.parse_args(argv)
     meta = read_json(args.model)
@@ -51,21 +53,21 @@ def main(argv=None) -> int:
         print(f"error: {args.data} holds {have!r} views, the model is a {pri['category']!r} model", file=sys.stderr)
         return 2
     new = measure_priors(ds, pri["category"], ds.meta["structure"], max_samples=args.num, template_samples=1).to_dict()
-    part_fields = ("seen_extent", "faced_gap") if args.seen_extent_only else PART_FIELDS
+    part_fields = ("seen_extent", "faced_gap") if args.extent_only else PART_FIELDS
     for old, fresh in zip(pri["parts"], new["parts"], strict=True):
         old.update({k: fresh[k] for k in part_fields})
     for old, fresh in zip(pri["joints"], new["joints"], strict=True):
-        old.update({k: fresh[k] for k in (() if args.seen_extent_only else JOINT_FIELDS)})
+        old.update({k: fresh[k] for k in (EXTENT_JOINT_FIELDS if args.extent_only else JOINT_FIELDS)})
     if args.radius:
         pri["radius_typical_m"] = new["radius_typical_m"]
-    key = "seen_extent_from" if args.seen_extent_only else "view_priors_from"
+    key = "seen_extent_from" if args.extent_only else "view_priors_from"
     made = {k: ds.meta.get(k) for k in ("split", "seed", "num", "generator_version")}  # how to make the views again
     meta.setdefault("info", {})[key] = {"data": Path(args.data).name, **made, "num_samples": new["num_samples"]}
     atomic_write_json(args.model, meta)
     for p in pri["parts"]:
         cells = sum(row[0] is not None for ax in p["seen_extent"] for row in ax)
         print(f"{p['name']}: seen extents measured in {cells} of {3 * len(p['seen_extent'][0])} axis patterns")
-        if args.seen_extent_only:
+        if args.extent_only:
             continue
         if p["upright_axis"] is None:
             print(f"{p['name']}: no upright axis")

@@ -49,6 +49,9 @@ def test_measured_priors_bound_the_vote_parameters_and_round_trip():
     assert math.isclose(pri.parts[0].mean_size_m[0], pri.parts[1].mean_size_m[0], rel_tol=1e-6)  # lid as wide as the base
     (j,) = pri.joints
     assert j.type == JointType.REVOLUTE and j.limits == (0.35, 2.6) and j.zero_offset_m == 0.0
+    # the lid is as wide and as deep as the base in every view; its thickness ratio varies
+    np.testing.assert_allclose([j.child_size_ratio[0], j.child_size_ratio[2]], [1.0, 1.0], rtol=1e-9)
+    assert j.child_size_spread[0] < 1e-9 and j.child_size_spread[2] < 1e-9 and j.child_size_spread[1] > 0.01
     # the lid sits above the base (+y in the base frame), the base below the lid
     assert j.child_in_parent[1] > 0.1 and j.parent_in_child[1] < 0.0
     for t in pri.shape_templates:  # the templates fill the unit box

@@ -207,6 +207,11 @@ class JointPrior:
             drawer always centred left-right in its cabinet), the child is placed at the mean there
             (:func:`ucope.voting.kinematic.place_prismatic_children`). ``None`` for revolute joints or
             when not measured.
+        child_size_ratio, child_size_spread: ``(3,)`` the mean over the training views of the child's box
+            extents over the parent's, axis by axis (the parts' axes agree at state 0), and its standard
+            deviation over that mean (a dishwasher door as wide as its body: 0.99, spread 0.004); where the
+            spread is small, a child's extent follows its parent's measured one
+            (:func:`ucope.voting.kinematic.carry_child_sizes`). ``None`` when not measured.
         pivot_in_parent, pivot_in_child: revolute joints: ``(3,)`` the foot of the perpendicular from the
             parent's box centre to the joint axis, in the parent's and in the child's frame, each divided
             elementwise by that part's box extents (mean over the training views, :func:`pivot_offsets`);
@@ -223,6 +228,8 @@ class JointPrior:
     child_in_parent: tuple[float, float, float] = (0.0, 0.0, 0.0)
     parent_in_child: tuple[float, float, float] = (0.0, 0.0, 0.0)
     child_in_parent_spread: tuple[float, float, float] | None = None
+    child_size_ratio: tuple[float, float, float] | None = None
+    child_size_spread: tuple[float, float, float] | None = None
     pivot_in_parent: tuple[float, float, float] | None = None
     pivot_in_child: tuple[float, float, float] | None = None
 
@@ -254,6 +261,15 @@ class JointPrior:
             if v.shape != (3,) or np.any(v < 0):
                 raise InputError(f"joint {self.parent}->{self.child}: child_in_parent_spread needs 3 values >= 0")
             object.__setattr__(self, "child_in_parent_spread", tuple(float(x) for x in v))
+        if (self.child_size_ratio is None) != (self.child_size_spread is None):
+            raise InputError(f"joint {self.parent}->{self.child}: child_size_ratio and child_size_spread go together")
+        if self.child_size_ratio is not None:
+            ratio = _finite(self.child_size_ratio, "child_size_ratio", positive=True).reshape(-1)
+            spread = _finite(self.child_size_spread, "child_size_spread").reshape(-1)
+            if ratio.shape != (3,) or spread.shape != (3,) or np.any(spread < 0):
+                raise InputError(f"joint {self.parent}->{self.child}: child_size_ratio needs 3 values > 0, its spread 3 >= 0")
+            object.__setattr__(self, "child_size_ratio", tuple(float(x) for x in ratio))
+            object.__setattr__(self, "child_size_spread", tuple(float(x) for x in spread))
         if (self.pivot_in_parent is None) != (self.pivot_in_child is None):
             raise InputError(f"joint {self.parent}->{self.child}: pivot_in_parent and pivot_in_child go together")
         for name in ("pivot_in_parent", "pivot_in_child"):
@@ -279,6 +295,8 @@ class JointPrior:
             "child_in_parent": list(self.child_in_parent),
             "parent_in_child": list(self.parent_in_child),
             "child_in_parent_spread": None if self.child_in_parent_spread is None else list(self.child_in_parent_spread),
+            "child_size_ratio": None if self.child_size_ratio is None else list(self.child_size_ratio),
+            "child_size_spread": None if self.child_size_spread is None else list(self.child_size_spread),
             "pivot_in_parent": None if self.pivot_in_parent is None else list(self.pivot_in_parent),
             "pivot_in_child": None if self.pivot_in_child is None else list(self.pivot_in_child),
         }
@@ -453,6 +471,8 @@ class CategoryPriors:
                     child_in_parent=tuple(j["child_in_parent"]),
                     parent_in_child=tuple(j["parent_in_child"]),
                     child_in_parent_spread=_tuple_or_none(j.get("child_in_parent_spread")),
+                    child_size_ratio=_tuple_or_none(j.get("child_size_ratio")),
+                    child_size_spread=_tuple_or_none(j.get("child_size_spread")),
                     pivot_in_parent=_tuple_or_none(j.get("pivot_in_parent")),
                     pivot_in_child=_tuple_or_none(j.get("pivot_in_child")),
                 )
@@ -784,12 +804,15 @@ def measure_priors(
             if jd["type"] == JointType.PRISMATIC:
                 zero = prismatic_zero_offset(T[:, p], T[:, c], U[:, j], size[:, p], size[:, c], Q[:, j])
             cip, pic = placement_offsets(T, size, p, c)
-            extra: dict[str, Any] = {}
+            ratio = size[:, c] / size[:, p]
+            extra: dict[str, Any] = dict(
+                child_size_ratio=tuple(ratio.mean(0)), child_size_spread=tuple(ratio.std(0) / ratio.mean(0))
+            )
             if jd["type"] == JointType.PRISMATIC:
                 extra["child_in_parent_spread"] = tuple(cip.std(0))
             if jd["type"] == JointType.REVOLUTE and np.all(np.isfinite(P[:, j])):
                 pp, pc = pivot_offsets(T, size, P[:, j], jd["axis_in_parent"], p, c)
-                extra = dict(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))
+                extra.update(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))
             lo, hi = jd["limits"]
             lo = None if lo is None else min(lo, float(Q[:, j].min()))
             hi = None if hi is None else max(hi, float(Q[:, j].max()))

@@ -380,3 +380,76 @@ def test_placing_names_bad_input():
     with pytest.raises(InputError, match="child_in_parent_spread"):
         JointPrior("prismatic", 0, 1, (0, 0, 1), child_in_parent_spread=(0.0, -0.1, 0.0))
     assert JointPrior.__dataclass_fields__["child_in_parent_spread"].default is None
+
+
+def _door_priors(ratio=(1.0, 0.86, 0.2), spread=(0.004, 0.02, 0.2)):
+    """A body and a door hinged along x at the body's front bottom edge (the door's bottom edge)."""
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+
+    return CategoryPriors(
+        category="cabinet_door",
+        parts=(PartPrior("body", "none", 1.0, (0.6, 0.8, 0.6)), PartPrior("door", "none", 1.0, (0.6, 0.7, 0.1))),
+        joints=(
+            JointPrior(
+                "revolute",
+                0,
+                1,
+                (1, 0, 0),
+                limits=(0.0, 1.57),
+                child_size_ratio=ratio,
+                child_size_spread=spread,
+                pivot_in_parent=(0.0, -0.5, 0.5),
+                pivot_in_child=(0.0, -0.5, -0.5),
+            ),
+        ),
+    )
+
+
+def test_a_hidden_door_takes_its_width_and_height_from_its_measured_body():
+    """The body's extents were measured (a countertop cabinet, 0.5 m tall); the door, voted 0.8 m tall, gets
+    0.86 x the body's height and its width, and hangs from the hinge where the body puts it; its depth (a
+    ratio that varies) and its rotation stay. A plausible door (within 15 %) keeps its extents."""
+    from ucope.voting import carry_child_sizes
+
+    pri = _door_priors()
+    rng = np.random.default_rng(0)
+    R = rotation_about_axis(rng.normal(size=3), 0.7)
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[:, :3, :3] = R
+    T[0, :3, 3] = [0.1, 0.2, 2.0]
+    S = np.array([[0.6, 0.5, 0.55], [0.6, 0.8, 0.1]])
+    measured = np.array([[True, True, True], [False, False, False]])
+    got_T, got_S, carried = carry_child_sizes(T, S, measured, pri)
+    np.testing.assert_allclose(got_S[1], [0.6, 0.86 * 0.5, 0.1])  # the width was already right: 0.6 = 1.0 x 0.6
+    np.testing.assert_array_equal(carried, [[False, False, False], [False, True, False]])
+    hinge = R @ (np.array([0.0, -0.5, 0.5]) * S[0]) + T[0, :3, 3]
+    np.testing.assert_allclose(got_T[1, :3, 3], hinge - R @ (np.array([0.0, -0.5, -0.5]) * got_S[1]), atol=1e-12)
+    np.testing.assert_array_equal(got_T[1, :3, :3], R)
+    np.testing.assert_array_equal(got_T[0], T[0])
+    # a door voted within 15 % of 0.86 x the body, a body not measured, a door measured itself: nothing moves
+    for S2, m in (
+        (np.array([[0.6, 0.5, 0.55], [0.6, 0.46, 0.1]]), measured),
+        (S, np.zeros((2, 3), bool)),
+        (S, np.ones((2, 3), bool)),
+    ):
+        same_T, same_S, carried = carry_child_sizes(T, S2, m, pri)
+        assert not carried.any() and np.array_equal(same_S, S2) and np.array_equal(same_T, T)
+
+
+def test_carrying_sizes_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.priors import JointPrior
+    from ucope.voting import carry_child_sizes
+
+    pri = _door_priors()
+    T, S, m = np.tile(np.eye(4), (2, 1, 1)), np.ones((2, 3)), np.zeros((2, 3), bool)
+    with pytest.raises(InputError, match="shapes"):
+        carry_child_sizes(T[:1], S, m, pri)
+    with pytest.raises(InputError, match="positive"):
+        carry_child_sizes(T, -S, m, pri)
+    with pytest.raises(InputError, match="min_change"):
+        carry_child_sizes(T, S, m, pri, min_change=-1.0)
+    with pytest.raises(InputError, match="go together"):
+        JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 1.0, 1.0))
+    with pytest.raises(InputError, match="child_size_ratio"):
+        JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 0.0, 1.0), child_size_spread=(0.0, 0.0, 0.0))

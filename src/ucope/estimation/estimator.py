@@ -55,6 +55,7 @@ from ..voting import (
     ShapeIndex,
     VotingOptions,
     anchor_faced_faces,
+    carry_child_sizes,
     fit_seen_extents,
     grow_to_points,
     place_prismatic_children,
@@ -302,7 +303,9 @@ class Estimator:
         fit_extents: set the box axes that views like this one see whole from the points segmented as their
             part, larger or smaller than voted (:func:`ucope.voting.fit_seen_extents`, with the model's
             ``PartPrior.seen_extent``; parts another part hides are left alone), after the box growth: objects
-            of proportions the training never had are measured rather than pulled to the training sizes. Off
+            of proportions the training never had are measured rather than pulled to the training sizes; a
+            child's extents then follow its parent's measured ones where their ratio never varies
+            (:func:`ucope.voting.carry_child_sizes`: a dishwasher door as wide as its body). Off
             here; :meth:`load` takes the model's default (on where it measured better: docs/results.md).
             Only parts whose calibrated score is below :data:`FIT_EXTENTS_BELOW` (every part without a
             calibration).
@@ -757,6 +760,8 @@ class Estimator:
                 [p.symmetry for p in self.priors.parts],
                 confidence=object_conf,
             )
+            if fitted.any():  # a hidden child's extents follow its measured parent's
+                v["cam_from_part"], v["size_m"], _ = carry_child_sizes(v["cam_from_part"], v["size_m"], fitted, self.priors)
         if (
             self.anchor_faces
             and self.faced_gap is not None

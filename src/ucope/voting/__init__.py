@@ -16,6 +16,7 @@ measured accuracy.
 * :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
 * :func:`resolve_joint_flips`, :func:`resolve_shape_flips` (:class:`ShapeIndex`), :func:`kinematic_refine`.
 * :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
+* :func:`carry_child_sizes`: a child's extents carried from its parent's measured ones where their ratio is fixed.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
@@ -36,6 +37,7 @@ from .faces import align_parts_to_faces, align_to_faces
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
     ShapeIndex,
+    carry_child_sizes,
     carry_upright,
     kinematic_refine,
     place_prismatic_children,
@@ -71,6 +73,7 @@ __all__ = [
     "resolve_joint_flips",
     "resolve_shape_flips",
     "carry_upright",
+    "carry_child_sizes",
     "upright_angles_deg",
     "place_prismatic_children",
     "vote_object",
