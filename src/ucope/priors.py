@@ -609,6 +609,30 @@ def upright_statistics(cam_from_part: np.ndarray, min_resultant: float = UPRIGHT
     return out
 
 
+def _seen_part_ranges(samples, K: int, quantile: float, max_occluded: float, min_points: int):
+    """For every sample and part with at least ``min_points`` labelled points that other parts' boxes hide at most
+    ``max_occluded`` of (at the true poses): ``(k, lo, hi, size, pattern, cam)``, the ``quantile`` and ``1 -
+    quantile`` quantiles of its points in its frame, its extents ``(3,)``, its face patterns ``(3,)``
+    (:func:`ucope.geometry.boxes.seen_pattern`) and the camera in its frame ``(3,)``."""
+    from .geometry.boxes import occluded_fraction, seen_pattern
+
+    for s in samples:  # one pass per sample; its points are handled with array operations
+        T = np.asarray(s["cam_from_part"], dtype=np.float64)
+        S = np.asarray(s["size_m"], dtype=np.float64)
+        pts = np.asarray(s["points"], dtype=np.float64)
+        lab = np.asarray(s["part_labels"])
+        pat = seen_pattern(T, S)
+        occ = occluded_fraction(T, S)
+        cam = -np.einsum("kji,kj->ki", T[:, :3, :3], T[:, :3, 3])
+        for k in range(K):  # a handful of parts
+            sel = lab == k
+            if np.count_nonzero(sel) < min_points or occ[k] > max_occluded:
+                continue
+            q = (pts[sel] - T[k, :3, 3]) @ T[k, :3, :3]
+            lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+            yield k, lo, hi, S[k], pat[k], cam[k]
+
+
 def seen_extent_statistics(
     samples: Sequence[Mapping[str, Any]],
     num_parts: int,
@@ -625,27 +649,15 @@ def seen_extent_statistics(
     its box extent) is filed under the axis's face pattern (:func:`ucope.geometry.boxes.seen_pattern`).
     Returns the 10th, 50th and 90th percentiles per part, axis and pattern; NaN where fewer than
     ``min_views`` views."""
-    from .geometry.boxes import SEEN_PATTERNS, occluded_fraction, seen_pattern
+    from .geometry.boxes import SEEN_PATTERNS
 
     K = int(num_parts)
     ratios, pattern, part, axis = [], [], [], []
-    for s in samples:  # one pass per sample; its points are handled with array operations
-        T = np.asarray(s["cam_from_part"], dtype=np.float64)
-        S = np.asarray(s["size_m"], dtype=np.float64)
-        pts = np.asarray(s["points"], dtype=np.float64)
-        lab = np.asarray(s["part_labels"])
-        pat = seen_pattern(T, S)
-        occ = occluded_fraction(T, S)
-        for k in range(K):  # a handful of parts
-            sel = lab == k
-            if np.count_nonzero(sel) < min_points or occ[k] > max_occluded:
-                continue
-            q = (pts[sel] - T[k, :3, 3]) @ T[k, :3, :3]
-            lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
-            ratios.append((hi - lo) / S[k])
-            pattern.append(pat[k])
-            part.append(np.full(3, k))
-            axis.append(np.arange(3))
+    for k, lo, hi, size, pat, _ in _seen_part_ranges(samples, K, quantile, max_occluded, min_points):
+        ratios.append((hi - lo) / size)
+        pattern.append(pat)
+        part.append(np.full(3, k))
+        axis.append(np.arange(3))
     out = np.full((K, 3, SEEN_PATTERNS, 3), np.nan)
     if not ratios:
         return out
@@ -675,30 +687,15 @@ def faced_gap_statistics(
     quantile`` extreme of the points towards it, over the part's box diagonal (negative where noise takes
     points past the face). Returns the 10th, 50th and 90th percentiles per part, axis and side; NaN where
     fewer than ``min_views`` views."""
-    from .geometry.boxes import occluded_fraction
-
     K = int(num_parts)
     gaps, cells = [], []
-    for s in samples:  # one pass per sample; its points are handled with array operations
-        T = np.asarray(s["cam_from_part"], dtype=np.float64)
-        S = np.asarray(s["size_m"], dtype=np.float64)
-        pts = np.asarray(s["points"], dtype=np.float64)
-        lab = np.asarray(s["part_labels"])
-        occ = occluded_fraction(T, S)
-        cam = -np.einsum("kji,kj->ki", T[:, :3, :3], T[:, :3, 3])
-        for k in range(K):  # a handful of parts
-            sel = lab == k
-            if np.count_nonzero(sel) < min_points or occ[k] > max_occluded:
-                continue
-            q = (pts[sel] - T[k, :3, 3]) @ T[k, :3, :3]
-            lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
-            half = 0.5 * S[k]
-            faced = np.abs(cam[k]) > half
-            plus = cam[k] > 0
-            gap = np.where(plus, half - hi, half + lo) / np.linalg.norm(S[k])
-            a = np.flatnonzero(faced)
-            gaps.append(gap[a])
-            cells.append((k * 3 + a) * 2 + plus[a])
+    for k, lo, hi, size, _, cam in _seen_part_ranges(samples, K, quantile, max_occluded, min_points):
+        half = 0.5 * size
+        plus = cam > 0
+        gap = np.where(plus, half - hi, half + lo) / np.linalg.norm(size)
+        a = np.flatnonzero(np.abs(cam) > half)  # the axes along which the camera faces a face
+        gaps.append(gap[a])
+        cells.append((k * 3 + a) * 2 + plus[a])
     out = np.full((K, 3, 2, 3), np.nan)
     if not gaps:
         return out
