@@ -84,34 +84,30 @@ def refine_default(off: dict, on: dict, max_iou_loss: float = 0.01) -> bool:
     return bool(better_rot and keeps_success and keeps_iou)
 
 
-def set_defaults(
-    info: dict,
-    reports: Path,
-    cat: str,
-    remove_plane: list[str] | None = None,
-    grow_boxes: list[str] | None = None,
-    align_faces: list[str] | None = None,
-    wide_scale_search: list[str] | None = None,
-    fit_extents: list[str] | None = None,
-    anchor_faces: list[str] | None = None,
-) -> None:
-    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist,
-    ``remove_plane`` (``cat in remove_plane``), ``grow_boxes``, ``align_faces``, ``wide_scale_search``,
-    ``fit_extents`` and ``anchor_faces`` likewise when those lists are given; the other defaults
-    (``denoise_above_m``) are kept."""
+SWITCHES = {
+    "remove_plane": ("leave a support plane out", "docs/robustness.md"),
+    "grow_boxes": ("grow their boxes to hold their points", "docs/results.md"),
+    "align_faces": ("align their part rotations to the normals of flat faces", "docs/results.md"),
+    "wide_scale_search": ("let the scale search also try 0.8x and 1.25x the typical size", "docs/results.md"),
+    "fit_extents": ("set the box axes a view sees whole from their points", "docs/results.md"),
+    "anchor_faces": ("anchor the root part's faced faces to its points", "docs/results.md"),
+}
+"""The model switches packaging sets per category (``info.defaults.<key>``): what each does, where it was
+measured. ``--<key with dashes> CAT...`` names the categories that get it on."""
+
+
+def set_defaults(info: dict, reports: Path, cat: str, **lists: list[str] | None) -> None:
+    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist, and each
+    switch of :data:`SWITCHES` given a list (``key=[categories]``) set to ``cat in`` that list; the other
+    defaults (``denoise_above_m``) are kept. Raises ``TypeError`` on a key that is not a switch."""
+    unknown = sorted(set(lists) - set(SWITCHES))
+    if unknown:
+        raise TypeError(f"set_defaults: not model switches: {unknown}")
     off, on = reports / f"{cat}_norefine.json", reports / f"{cat}_refine.json"
     if off.is_file() and on.is_file():
         info.setdefault("defaults", {}).update(
             refine=refine_default(json.loads(off.read_text()), json.loads(on.read_text())), decided_from=[off.name, on.name]
         )
-    lists = dict(
-        remove_plane=remove_plane,
-        grow_boxes=grow_boxes,
-        align_faces=align_faces,
-        wide_scale_search=wide_scale_search,
-        fit_extents=fit_extents,
-        anchor_faces=anchor_faces,
-    )
     for key, cats in lists.items():
         if cats is not None:
             info.setdefault("defaults", {})[key] = cat in cats
@@ -119,8 +115,7 @@ def set_defaults(
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
     """``--figures-only``: rewrite ``info.test`` of the shipped models ``cats`` from ``reports/<cat>.json``
-    (and the defaults: :func:`set_defaults` with ``lists``, ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
-    ``wide_scale_search`` / ``fit_extents`` / ``anchor_faces``)."""
+    (and the defaults: :func:`set_defaults` with ``lists``, the switches of :data:`SWITCHES`)."""
     from ucope.fileio import atomic_write_json
 
     for cat in cats:
@@ -137,8 +132,7 @@ def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
 
 
 def set_run_defaults(runs: Path, reports: Path, cats: list[str], **lists) -> int:
-    """``--set-defaults``: :func:`set_defaults` (and ``remove_plane`` / ``grow_boxes`` / ``align_faces`` /
-    ``wide_scale_search`` / ``fit_extents`` / ``anchor_faces``, when given) into
+    """``--set-defaults``: :func:`set_defaults` (and the switches of :data:`SWITCHES`, when given) into
     ``runs/<cat>/model.json``."""
     from ucope.fileio import atomic_write_json
 
@@ -168,63 +162,17 @@ def main() -> int:
     ap.add_argument("--check-num", type=int, default=60)
     ap.add_argument("--max-change-deg", type=float, default=0.5)
     ap.add_argument("--max-change-m", type=float, default=0.002)
-    ap.add_argument(
-        "--remove-plane",
-        nargs="*",
-        default=None,
-        metavar="CAT",
-        help="the categories whose models leave a support plane out by default (info.defaults.remove_plane; "
-        "docs/robustness.md has the measurements); others get it off; omitted: left as it is",
-    )
-    ap.add_argument(
-        "--grow-boxes",
-        nargs="*",
-        default=None,
-        metavar="CAT",
-        help="the categories whose models grow their boxes to hold their points by default (info.defaults.grow_boxes; "
-        "docs/results.md has the measurements); others get it off; omitted: left as it is",
-    )
-    ap.add_argument(
-        "--align-faces",
-        nargs="*",
-        default=None,
-        metavar="CAT",
-        help="the categories whose models align their part rotations to the normals of flat faces by default "
-        "(info.defaults.align_faces; docs/results.md has the measurements); others get it off; omitted: left as it is",
-    )
-    ap.add_argument(
-        "--wide-scale-search",
-        nargs="*",
-        default=None,
-        metavar="CAT",
-        help="the categories whose models' scale search also tries 0.8x and 1.25x the typical size by default "
-        "(info.defaults.wide_scale_search; docs/results.md has the measurements); others get it off; omitted: left as it is",
-    )
-    ap.add_argument(
-        "--fit-extents",
-        nargs="*",
-        default=None,
-        metavar="CAT",
-        help="the categories whose models set the box axes a view sees whole from their points by default "
-        "(info.defaults.fit_extents; docs/results.md has the measurements); others get it off; omitted: left as it is",
-    )
-    ap.add_argument(
-        "--anchor-faces",
-        nargs="*",
-        default=None,
-        metavar="CAT",
-        help="the categories whose models anchor the root part's faced faces to its points by default "
-        "(info.defaults.anchor_faces; docs/results.md has the measurements); others get it off; omitted: left as it is",
-    )
+    for key, (what, where) in SWITCHES.items():
+        ap.add_argument(
+            "--" + key.replace("_", "-"),
+            nargs="*",
+            default=None,
+            metavar="CAT",
+            help=f"the categories whose models {what} by default (info.defaults.{key}; {where} has the measurements); "
+            "others get it off; omitted: left as it is",
+        )
     args = ap.parse_args()
-    lists = dict(
-        remove_plane=args.remove_plane,
-        grow_boxes=args.grow_boxes,
-        align_faces=args.align_faces,
-        wide_scale_search=args.wide_scale_search,
-        fit_extents=args.fit_extents,
-        anchor_faces=args.anchor_faces,
-    )
+    lists = {key: getattr(args, key) for key in SWITCHES}
     dest = pretrained_dir()
     if args.figures_only:
         return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))], **lists)

@@ -633,6 +633,17 @@ def _seen_part_ranges(samples, K: int, quantile: float, max_occluded: float, min
             yield k, lo, hi, S[k], pat[k], cam[k]
 
 
+def _cell_percentiles(values: np.ndarray, cells: np.ndarray, shape: tuple, min_views: int) -> np.ndarray:
+    """``shape + (3,)``: the 10th, 50th and 90th percentiles of ``values`` per flat cell index ``cells`` (into
+    ``shape``), NaN in cells with fewer than ``min_views`` values."""
+    out = np.full((int(np.prod(shape)), 3), np.nan)
+    for c in np.unique(cells):  # one per filled cell: a few dozen
+        v = values[cells == c]
+        if len(v) >= min_views:
+            out[c] = np.percentile(v, [10.0, 50.0, 90.0])
+    return out.reshape(*shape, 3)
+
+
 def seen_extent_statistics(
     samples: Sequence[Mapping[str, Any]],
     num_parts: int,
@@ -658,17 +669,10 @@ def seen_extent_statistics(
         pattern.append(pat)
         part.append(np.full(3, k))
         axis.append(np.arange(3))
-    out = np.full((K, 3, SEEN_PATTERNS, 3), np.nan)
     if not ratios:
-        return out
+        return np.full((K, 3, SEEN_PATTERNS, 3), np.nan)
     r, p, k, a = (np.concatenate(x) for x in (ratios, pattern, part, axis))
-    cell = (k * 3 + a) * SEEN_PATTERNS + p
-    for c in np.unique(cell):  # at most K * 3 * SEEN_PATTERNS cells
-        v = r[cell == c]
-        if len(v) >= min_views:
-            kk, rest = divmod(int(c), 3 * SEEN_PATTERNS)
-            out[kk, rest // SEEN_PATTERNS, rest % SEEN_PATTERNS] = np.percentile(v, [10.0, 50.0, 90.0])
-    return out
+    return _cell_percentiles(r, (k * 3 + a) * SEEN_PATTERNS + p, (K, 3, SEEN_PATTERNS), min_views)
 
 
 def faced_gap_statistics(
@@ -696,16 +700,9 @@ def faced_gap_statistics(
         a = np.flatnonzero(np.abs(cam) > half)  # the axes along which the camera faces a face
         gaps.append(gap[a])
         cells.append((k * 3 + a) * 2 + plus[a])
-    out = np.full((K, 3, 2, 3), np.nan)
     if not gaps:
-        return out
-    g, c = np.concatenate(gaps), np.concatenate(cells)
-    for cell in np.unique(c):  # at most K * 3 * 2 cells
-        v = g[c == cell]
-        if len(v) >= min_views:
-            k, rest = divmod(int(cell), 6)
-            out[k, rest // 2, rest % 2] = np.percentile(v, [10.0, 50.0, 90.0])
-    return out
+        return np.full((K, 3, 2, 3), np.nan)
+    return _cell_percentiles(np.concatenate(gaps), np.concatenate(cells), (K, 3, 2), min_views)
 
 
 def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_points: int = TEMPLATE_POINTS) -> np.ndarray:

@@ -260,6 +260,9 @@ def test_hidden_symmetric_sparse_and_far_too_small_parts_keep_their_boxes():
     # symmetric about y: only y may be set; too few points: nothing
     _, _, fitted = fit_seen_extents(T2, S, pts, labels, table, ["y", "none"], min_seen=0.1, max_occluded=1.0)
     assert not fitted[0, [0, 2]].any()
+    # only the parts named may be fitted
+    _, _, fitted = fit_seen_extents(T2, S, pts, labels, table, parts=(1,), min_seen=0.1, max_occluded=1.0)
+    assert not fitted[0].any()
     _, S_out, fitted = fit_seen_extents(T2, S, pts[:10], labels[:10], table)
     assert not fitted.any() and np.array_equal(S_out, S)
 
@@ -290,6 +293,8 @@ def test_fit_bad_input_is_named():
         fit_seen_extents(T, S, pts, lab, table, confidence=np.ones(3))
     with pytest.raises(InputError, match="symmetry"):
         fit_seen_extents(T, S, pts, lab, table, ["none", "y"])
+    with pytest.raises(InputError, match="parts"):
+        fit_seen_extents(T, S, pts, lab, table, parts=(1,))
 
 
 # ---------------------------------------------------------------------------------- anchor_faced_faces

@@ -748,16 +748,16 @@ class Estimator:
         fitted = np.zeros((K, 3), dtype=bool)
         if self.fit_extents and self.seen_extent is not None and num_input >= FIT_EXTENTS_MIN_INPUT:  # after growth
             v = dict(v)
-            table = self.seen_extent
-            if self.calibration is not None:  # parts the calibration is sure of keep their boxes
-                table = np.where((scores >= FIT_EXTENTS_BELOW)[:, None, None, None], np.nan, table)
+            # parts the calibration is sure of keep their boxes
+            unsure = np.flatnonzero(scores < FIT_EXTENTS_BELOW) if self.calibration is not None else None
             v["cam_from_part"], v["size_m"], fitted = fit_seen_extents(
                 v["cam_from_part"],
                 v["size_m"],
                 p_net,
                 labels,
-                table,
+                self.seen_extent,
                 [p.symmetry for p in self.priors.parts],
+                parts=unsure,
                 confidence=object_conf,
             )
             if fitted.any():  # a hidden child's extents follow its measured parent's

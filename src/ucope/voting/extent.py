@@ -107,6 +107,18 @@ def _checked(cam_from_part, size_m, points, labels) -> tuple[np.ndarray, np.ndar
     return T, S, pts, lab
 
 
+def _part_mask(parts, K: int) -> np.ndarray:
+    """``(K,)`` bool of the part indices ``parts`` (``None``: all), or :class:`InputError` on one outside ``[0, K)``."""
+    if parts is None:
+        return np.ones(K, dtype=bool)
+    idx = np.asarray(list(parts), dtype=np.int64).reshape(-1)
+    if ((idx < 0) | (idx >= K)).any():
+        raise InputError(f"parts must name parts in [0, {K}), got {idx.tolist()}")
+    mask = np.zeros(K, dtype=bool)
+    mask[idx] = True
+    return mask
+
+
 def _checked_confidence(confidence, n: int) -> np.ndarray:
     """``(n,)`` float64 confidences, or :class:`InputError` naming the wrong shape or a non-finite value."""
     conf = np.asarray(confidence, dtype=np.float64)
@@ -242,6 +254,7 @@ def fit_seen_extents(
     labels,
     seen_extent,
     symmetry: Sequence[str] | None = None,
+    parts: Sequence[int] | None = None,
     quantile: float = SEEN_QUANTILE,
     min_points: int = GROW_MIN_POINTS,
     connect_factor: float | None = GROW_CONNECT_FACTOR,
@@ -281,6 +294,7 @@ def fit_seen_extents(
             percentiles of the seen ratio, NaN where not measured
             (:attr:`ucope.priors.CategoryPriors.seen_extent`).
         symmetry, min_points, connect_factor: as :func:`grow_to_points`.
+        parts: the parts that may be fitted (``None``: all).
         confidence: ``(P,)`` the probability that each point is the object, not the background (``None``:
             every labelled point is sure). Points at ``sure_confidence`` or above are sure, points at
             ``min_confidence`` or above plausible; the others do not count.
@@ -291,8 +305,8 @@ def fit_seen_extents(
 
     Raises:
         InputError: shapes that do not match, non-finite poses, sizes or points, a non-positive size, a
-            negative or non-finite table entry, ``quantile`` outside ``[0, 0.5)``, ratios that are not
-            positive.
+            negative or non-finite table entry, a part index outside ``[0, K)``, ``quantile`` outside
+            ``[0, 0.5)``, ratios that are not positive.
     """
     T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
     K = len(T)
@@ -319,6 +333,7 @@ def fit_seen_extents(
     with np.errstate(invalid="ignore"):  # NaN (not measured) compares False
         fit = (stats[..., 0] >= min_ratio) & (stats[..., 2] <= max_ratio) & (stats[..., 1] > 0)
     fit[np.array([k for k in range(K) if sym[k] != "none"], dtype=np.int64), 0::2] = False  # x, z of a y-symmetric part
+    fit &= _part_mask(parts, K)[:, None]
     fitted = np.zeros((K, 3), dtype=bool)
     if not fit.any():
         return T, S, fitted
@@ -406,11 +421,7 @@ def anchor_faced_faces(
     table = np.asarray(faced_gap, dtype=np.float64)
     if table.shape != (K, 3, 2, 3) or np.isinf(table).any():
         raise InputError(f"faced_gap must have shape ({K}, 3, 2, 3) with finite entries (NaN: not measured), got {table.shape}")
-    movable = np.zeros(K, dtype=bool)
-    for k in range(K) if parts is None else parts:
-        if not 0 <= int(k) < K:
-            raise InputError(f"parts must name parts in [0, {K}), got {list(parts)}")
-        movable[int(k)] = True
+    movable = _part_mask(parts, K)
     hold = np.zeros((K, 3), dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
     if hold.shape != (K, 3):
         raise InputError(f"keep must have shape ({K}, 3), got {hold.shape}")
