@@ -231,6 +231,46 @@ def test_states_outside_the_limits_are_clamped_and_the_child_moves_with_them():
     assert not clamped[0] and np.array_equal(same, T2)
 
 
+def test_settled_states_are_read_off_the_boxes_and_clamped_into_the_limits():
+    """A drawer box moved and resized after voting: its state is its support gap now, not the voted one;
+    one pulled out past the upper limit (or pushed in past 0) is brought onto it and moves with it; a
+    revolute state is the angle about the voted axis; bad shapes are named."""
+    from ucope.errors import InputError
+    from ucope.geometry.kinematics import joint_state_from_poses
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+    from ucope.voting import settle_joint_states
+
+    parts = (PartPrior("base", "none", 0.3, (0.3, 0.1, 0.3)), PartPrior("drawer", "none", 0.3, (0.2, 0.1, 0.25)))
+    pri = CategoryPriors(
+        "toy", parts, (JointPrior("prismatic", 0, 1, (0, 0, 1), limits=(0.0, 0.2), zero_offset_m=0.01),), norm_scale_m=0.3
+    )
+    R = rotation_about_axis(np.array([0.0, 1.0, 0.0]), 0.7)  # turned about the camera's y: the axis is R e_z
+    u = (R @ np.array([0.0, 0.0, 1.0]))[None]
+    S = np.array([[0.3, 0.1, 0.3], [0.2, 0.1, 0.27]])
+    for local_z, want in ((0.1, None), (0.3, 0.2), (-0.2, 0.0)):
+        T = np.tile(np.eye(4), (2, 1, 1))
+        T[:, :3, :3] = R
+        T[:, :3, 3] = [0.1, -0.2, 1.0]
+        T[1, :3, 3] += R @ np.array([0.0, 0.05, local_z])
+        plain = 0.5 * 0.27 + local_z - 0.5 * 0.3 - 0.01  # support gap along the axis less the zero offset
+        T2, q, clamped = settle_joint_states(T, S, u, np.zeros((1, 3)), pri)
+        if want is None:
+            assert not clamped[0] and q[0] == pytest.approx(plain) and np.array_equal(T2, T)
+        else:
+            assert clamped[0] and q[0] == pytest.approx(want)
+            np.testing.assert_allclose(T2[1, :3, 3] - T[1, :3, 3], (want - plain) * u[0], atol=1e-12)
+            assert joint_state_from_poses(T2[0], T2[1], u[0], "prismatic", S[0], S[1], 0.01) == pytest.approx(want)
+    rev = CategoryPriors("toy", parts, (JointPrior("revolute", 0, 1, (1, 0, 0), limits=(0.0, 1.0)),), norm_scale_m=0.3)
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[1, :3, :3] = rotation_about_axis(np.array([1.0, 0, 0]), 0.6)
+    _, q, clamped = settle_joint_states(T, S, np.eye(3)[:1], np.zeros((1, 3)), rev)
+    assert not clamped[0] and q[0] == pytest.approx(0.6)
+    with pytest.raises(InputError, match="joint_axis"):
+        settle_joint_states(T, S, np.eye(3)[:2], np.zeros((1, 3)), rev)
+    with pytest.raises(InputError, match="finite"):
+        settle_joint_states(T, np.full((2, 3), np.nan), np.eye(3)[:1], np.zeros((1, 3)), rev)
+
+
 def test_a_part_tilted_off_its_upright_is_carried_from_its_neighbour_through_the_joint():
     """Laptop: a base voted on end (turned 70 degrees about the hinge line) is re-placed from the lid:
     consistent with it through the joint, within the limits, its hinge where the lid's is, nearer the

@@ -26,7 +26,9 @@ the whole is repeated on the cloud normalised to the model's typical size (``sca
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
 set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
 are (``anchor_faces``), and each prismatic child is put where its parent always held it across the joint's
-axis (``place_children``).
+axis (``place_children``). Last, every joint state is read off the final boxes and clamped into the category's
+limits (the child moved with it, the joint's score halved where clamped): a reported state always agrees with
+the reported part poses and lies inside the limits.
 
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
 """
@@ -60,6 +62,7 @@ from ..voting import (
     grow_to_points,
     place_prismatic_children,
     regressed_object,
+    settle_joint_states,
     vote_object,
 )
 from .confidence import Calibration, part_features
@@ -775,6 +778,14 @@ class Estimator:
         if self.place_children:  # after growth, which may have moved a drawer's centre sideways
             v = dict(v)
             v["cam_from_part"], _ = place_prismatic_children(v["cam_from_part"], v["size_m"], self.priors)
+        if self.priors.num_joints > 0:  # the states of the boxes as they now stand, inside the limits
+            v = dict(v)
+            before = np.asarray(v.get("joint_clamped", np.zeros(self.priors.num_joints, dtype=bool)), dtype=bool)
+            v["cam_from_part"], v["joint_state"], clamped = settle_joint_states(
+                v["cam_from_part"], v["size_m"], v["joint_axis"], v["joint_pivot"], self.priors
+            )
+            v["joint_score"] = np.where(clamped & ~before, 0.5 * np.asarray(v["joint_score"]), v["joint_score"])
+            v["joint_clamped"] = before | clamped
         carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
         scores = np.where(carried, 0.5 * scores, scores)
         if scale != 1.0:

@@ -18,6 +18,7 @@ measured accuracy.
 * :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
 * :func:`carry_child_sizes`: a child's extents carried from its parent's measured ones where their ratio is fixed.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
+* :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
 * :func:`fit_seen_extents`: box axes that views like this one see whole, set from the part's points (larger or
@@ -43,6 +44,7 @@ from .kinematic import (
     place_prismatic_children,
     resolve_joint_flips,
     resolve_shape_flips,
+    settle_joint_states,
     upright_angles_deg,
 )
 from .object import part_fit, regressed_object, regression_scores, vote_object
@@ -76,6 +78,7 @@ __all__ = [
     "carry_child_sizes",
     "upright_angles_deg",
     "place_prismatic_children",
+    "settle_joint_states",
     "vote_object",
     "part_fit",
     "regressed_object",

@@ -56,6 +56,7 @@ __all__ = [
     "resolve_shape_flips",
     "ShapeIndex",
     "clamp_joint_states",
+    "settle_joint_states",
     "place_prismatic_children",
     "PLACE_MAX_SPREAD",
     "carry_upright",
@@ -401,6 +402,55 @@ def clamp_joint_states(
         q[j] += delta
         clamped[j] = True
     return T, q, clamped
+
+
+def settle_joint_states(
+    cam_from_part, size_m, joint_axis, joint_pivot, priors: CategoryPriors
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joint states read off the final part poses and boxes, then clamped into the category's limits.
+
+    The states voting reports are measured before the steps that move boxes afterwards (the kinematic
+    refinement, box growth, fitted extents, anchored faces, drawer placement), and the refinement may
+    take a state clamped before it back outside the limits: on the shipped drawer's 200 test / 100 OOD
+    views 5 / 14 % of the states came out outside ``[0, upper limit]``, and a drawer's reported state
+    differed from its box's support gap by 1.0 / 1.9 cm (median). Here each state is measured again from
+    ``cam_from_part`` and ``size_m`` about the voted axis
+    (:func:`ucope.geometry.kinematics.joint_state_from_poses`: a revolute angle about ``joint_axis``, a
+    prismatic support gap less ``zero_offset_m``), then :func:`clamp_joint_states` brings those outside
+    the limits onto them and moves the child with them.
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents.
+        joint_axis, joint_pivot: ``(J, 3)`` the voted axes (unit, camera frame) and pivots (metres).
+        priors: the category's priors (tree, types, limits, canonical axes, prismatic zero offsets).
+
+    Returns:
+        ``(cam_from_part, joint_state, clamped)``: a ``(K, 4, 4)`` copy with clamped children moved, ``(J,)``
+        states (radians or metres), ``(J,)`` bool, the joints clamped.
+
+    Raises:
+        InputError: shapes that do not match the priors, non-finite poses, sizes or axes.
+    """
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    u = np.asarray(joint_axis, dtype=np.float64)
+    piv = np.asarray(joint_pivot, dtype=np.float64)
+    K, J = priors.num_parts, priors.num_joints
+    if T.shape != (K, 4, 4) or S.shape != (K, 3) or u.shape != (J, 3) or piv.shape != (J, 3):
+        raise InputError(
+            f"cam_from_part, size_m, joint_axis and joint_pivot must have shapes ({K}, 4, 4), ({K}, 3), ({J}, 3), "
+            f"({J}, 3), got {T.shape}, {S.shape}, {u.shape}, {piv.shape}"
+        )
+    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(u).all()):
+        raise InputError("cam_from_part, size_m and joint_axis must be finite")
+    q = np.array(
+        [
+            joint_state_from_poses(T[jp.parent], T[jp.child], u[j], jp.type, S[jp.parent], S[jp.child], jp.zero_offset_m)
+            for j, jp in enumerate(priors.joints)  # a handful of joints
+        ],
+        dtype=np.float64,
+    )
+    return clamp_joint_states(T, u, piv, q, priors)
 
 
 def place_prismatic_children(
