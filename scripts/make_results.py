@@ -281,6 +281,24 @@ def success_cell(rep: dict | None) -> str:
     return f"{100 * rep['success']['fraction']:.0f} % ({rep['data']['num_samples']})"
 
 
+def seen_ratios(view_bins: dict) -> str:
+    """Per part, ``"<rotation>x; <translation>x (n)"``: the back views' mean errors over the front views', both over
+    the views that show the part (``seen_parts``), ``n`` the back views that hide it; ``-`` for a report without
+    them (older reports) or a part no front or back view shows."""
+    f, b = (view_bins.get(x, {}).get("seen_parts") for x in ("front", "back"))
+    if not f or not b:
+        return "-"
+    out = []
+    for k in range(len(f["rotation_deg"]["mean"])):
+        rf, rb = f["rotation_deg"]["mean"][k], b["rotation_deg"]["mean"][k]
+        tf, tb = f["translation_norm"]["mean"][k], b["translation_norm"]["mean"][k]
+        if None in (rf, rb, tf, tb) or rf <= 0 or tf <= 0:
+            out.append("-")
+            continue
+        out.append(f"{rb / rf:.2f}x; {tb / tf:.2f}x ({b['num_missing'][k]})")
+    return ", ".join(out)
+
+
 def command(rep: dict) -> str:
     return rep.get("command") or "(command not recorded)"
 
@@ -797,15 +815,20 @@ def main() -> int:
             "(unseen instances of the training families and sizes); *ood*: `ucope generate --split ood` (shape families held "
             "out of training, sizes scaled by log-uniform 0.5-2x, [conventions.md](conventions.md)), 100 views, evaluated "
             "with the model's shipped defaults (rescaling, plane removal, refinement, box growth, face alignment, "
-            "the three-size scale search, the fitted extents and anchored faces, the drawer placement; its stored weights, "
+            "the three-size scale search, the fitted extents and anchored faces, the drawer placement, the settled joint "
+            "states; its stored weights, "
             "half precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "
             "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error and mean translation "
-            "error (% of the part's box diagonal) per part.",
+            "error (% of the part's box diagonal) per part. *back / front, seen*: per part, the mean rotation and "
+            "translation errors of the back views over those of the front views, both counted only where the view shows "
+            "the part (at least 30 of its points, the report's `seen_parts`; a closed dishwasher door or a drawer seen "
+            "from behind is hidden, its pose a guess no point can check), the number of back views that hide it in "
+            "brackets.",
             "",
             "| category | test | ood | front | side | back | rotation front / side / back (deg) | "
-            "translation front / side / back (% of diagonal) |",
-            "|---|---|---|---|---|---|---|---|",
+            "translation front / side / back (% of diagonal) | back / front, seen: rotation; translation |",
+            "|---|---|---|---|---|---|---|---|---|",
         ]
         for c in CATEGORY_ORDER:
             r, o = binned.get(c), ood.get(c)
@@ -822,7 +845,8 @@ def main() -> int:
                 cells([100 * t for t in vb[b]["parts"]["translation_norm"]["mean"]], "{:.1f}") if b in vb else "-"
                 for b in ("front", "side", "back")
             )
-            out.append(f"| {c} | {success_cell(r)} | {success_cell(o)} | " + " | ".join(cell_) + f" | {rot} | {trans} |")
+            row = f"| {c} | {success_cell(r)} | {success_cell(o)} | " + " | ".join(cell_)
+            out.append(row + f" | {rot} | {trans} | {seen_ratios(vb)} |")
         out.append("")
 
     # ------------------------------------------------------------------------------ other sizes

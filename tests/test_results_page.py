@@ -141,3 +141,14 @@ def test_voting_is_compared_with_regression_only_on_the_same_views(tmp_path):
     text = "\n".join(mr.voting_vs_regression_section(tmp_path))
     assert "| mug (10) | voting (U-COPE) | 3.0 |" in text and "| mug (10) | regression | 5.0 |" in text
     assert "| mug (10) | regression, *median* | 2.5 |" in text
+
+
+def test_seen_ratios_divide_back_by_front_over_the_views_that_show_each_part():
+    mr = _make_results_module()
+
+    def seen(rot, trans, missing):
+        return {"seen_parts": {"rotation_deg": {"mean": rot}, "translation_norm": {"mean": trans}, "num_missing": missing}}
+
+    bins = {"front": seen([2.0, 4.0], [0.02, 0.05], [0, 0]), "back": seen([3.0, None], [0.01, None], [0, 7])}
+    assert mr.seen_ratios(bins) == "1.50x; 0.50x (0), -"
+    assert mr.seen_ratios({"front": {"parts": {}}, "back": {"parts": {}}}) == "-"  # a report from before seen_parts

@@ -309,3 +309,45 @@ def test_a_report_splits_its_errors_by_view_bin():
         assert b["success"] == pytest.approx(np.mean(np.array(mine) + 0.5 < 10))
     assert rep["success"]["fraction"] == pytest.approx(10 / 12)  # views 0-9 are within 10 degrees
     assert "front views" in format_report(rep) or "side views" in format_report(rep)
+
+
+def test_seen_parts_leave_out_the_views_that_hide_a_part():
+    """``visible_points`` counts each part's ground-truth points; a bin's ``seen_parts`` averages a part over
+    the views showing at least SEEN_MIN_POINTS of them and counts the others as missing."""
+    from ucope.eval.evaluate import SEEN_MIN_POINTS, view_bin, visible_points
+
+    class Skewed(Oracle):
+        def predict_sample(self, s):
+            self.R = Rotation.from_euler("z", s["index"] + 0.5, degrees=True).as_matrix()
+            return super().predict_sample(s)
+
+    data = samples("laptop", 12)
+    hidden = {1, 4, 7, 10}  # the lid hidden in these views: its labels moved onto the base
+    views = []
+    for i in range(12):
+        s = dict(data[i])
+        if i in hidden:
+            lab = np.asarray(s["part_labels"]).copy()
+            keep = np.flatnonzero(lab == 1)[: SEEN_MIN_POINTS - 1]  # one point short of seen
+            lab[(lab == 1) & ~np.isin(np.arange(lab.size), keep)] = 0
+            s["part_labels"] = lab
+        views.append(s)
+    assert visible_points({"part_labels": np.array([0, 1, 1, -1, 5])}, 2) == [1, 2]
+    rep = evaluate(Skewed("laptop"), views, progress=False)
+    yaws = [s["view_yaw_deg"] for s in rep["samples"]]
+    for i, rec in enumerate(rep["samples"]):
+        lab = np.asarray(views[i]["part_labels"])
+        assert rec["visible_points"] == [int((lab == 0).sum()), int((lab == 1).sum())]
+    counts = [[int((np.asarray(v["part_labels"]) == k).sum()) for k in (0, 1)] for v in views]
+    assert all(counts[i][1] == SEEN_MIN_POINTS - 1 for i in hidden)
+    for name, b in rep["view_bins"].items():
+        mine = [i for i, y in enumerate(yaws) if view_bin(y) == name]
+        seen = b["seen_parts"]
+        for k in (0, 1):
+            shown = [i for i in mine if counts[i][k] >= SEEN_MIN_POINTS]
+            assert seen["num_missing"][k] == len(mine) - len(shown)
+            if shown:
+                assert seen["rotation_deg"]["mean"][k] == pytest.approx(np.mean(shown) + 0.5, abs=1e-3)
+            else:
+                assert seen["rotation_deg"]["mean"][k] is None
+    assert sum(b["seen_parts"]["num_missing"][1] for b in rep["view_bins"].values()) >= len(hidden)
