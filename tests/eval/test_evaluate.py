@@ -351,3 +351,4 @@ def test_seen_parts_leave_out_the_views_that_hide_a_part():
             else:
                 assert seen["rotation_deg"]["mean"][k] is None
     assert sum(b["seen_parts"]["num_missing"][1] for b in rep["view_bins"].values()) >= len(hidden)
+    assert "views hiding each part" in format_report(rep)

@@ -489,10 +489,17 @@ def format_report(report: Mapping) -> str:
     if seg:
         lines.append(f"  segmentation IoU (%)    {_cells(seg['iou'], '{:.1f}', 100.0)}; accuracy {100 * seg['accuracy']:.1f}%")
     for b, vb in (report.get("view_bins") or {}).items():
-        lines.append(
+        line = (
             f"  {b + ' views':12s} ({vb['num_samples']:3d}) rotation {_stat_cells(vb['parts']['rotation_deg'], '{:.1f}')}; "
             f"success {100 * vb['success']:.0f} %"
         )
+        seen = vb.get("seen_parts")
+        if seen and any(seen["num_missing"]):  # parts some views of the bin do not show
+            line += (
+                f"; views hiding each part {', '.join(str(n) for n in seen['num_missing'])}, rotation where shown "
+                f"{_cells(seen['rotation_deg']['mean'], '{:.1f}')}"
+            )
+        lines.append(line)
     if report.get("map"):
         lines.append(format_map_table(report["map"], indent="  "))
     if report.get("map_nocs"):
