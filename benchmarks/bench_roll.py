@@ -6,7 +6,8 @@
 The models were trained on upright cameras (3 degrees of roll). For every model, ``--num`` unseen test views
 of its category (generator defaults, one view per instance, seed ``--seed``) are rolled by each angle of
 ``--rolls`` (:func:`ucope.data.sample.roll_sample`: the same view, the camera turned about its optical axis)
-and estimated three ways: without the upright carry (``upright=False``), with the defaults, and with the
+and estimated three ways: without the upright carry and turn (``upright=False``; ``carried_views`` counts the
+views where either acted), with the defaults, and with the
 world's up direction given (``predict(points, up=...)``, the object's y axis, which the generators stand
 upright: what an IMU would report), which turns the cloud back to an upright camera first. A view succeeds
 when every part is within 10 degrees and 10 % of its ground-truth box diagonal
@@ -44,7 +45,7 @@ def view_record(est: Estimator, sample: dict, up) -> dict:
     return {
         "rot_deg": [e["rotation_deg"] for e in err],
         "success": bool(view_success(err)),
-        "carried": any("placed from its neighbour" in w for w in res.warnings),
+        "carried": any("placed from its neighbour" in w or "turned over" in w for w in res.warnings),
     }
 
 

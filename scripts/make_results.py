@@ -893,7 +893,7 @@ def main() -> int:
             f"`python benchmarks/bench_roll.py`: {st['num']} unseen test views per model (seed {st['seed']}, "
             f"{st['pairs']:,} pairs), the camera rolled about its optical axis by each angle "
             "(`ucope.data.sample.roll_sample`). The models were trained on upright cameras (3 degrees of roll). Each "
-            "cell: success % without the upright carry (`upright=False`) / with the defaults / with the world's up "
+            "cell: success % without the upright carry and turn (`upright=False`) / with the defaults / with the world's up "
             "direction given (`predict(points, up=...)`, `--up X Y Z`: the cloud is turned back to an upright camera "
             f"first); success = {b['success']}.",
             "",

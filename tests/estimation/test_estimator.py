@@ -604,3 +604,22 @@ def test_the_shipped_drawer_reports_states_of_its_boxes_inside_the_limits():
             cab.cam_from_part, child.cam_from_part, je.axis, "prismatic", cab.size_m, child.size_m, jp.zero_offset_m
         )
         assert gap == pytest.approx(je.state, abs=1e-9)
+
+
+def test_the_shipped_laptop_rigid_turns_a_laptop_voted_upside_down_over():
+    """Test view 154 of laptop_rigid's test split: its votes put the laptop upside down (a half turn from the
+    truth, the box centre 0.42 of its diagonal off). With ``upright`` (the default) it is turned over and
+    placed from its points, within 10 degrees and 10 % of its diagonal, and a warning says so; without, it
+    stays upside down (:func:`ucope.voting.turn_upright`)."""
+    from ucope.geometry.transforms import rotation_angle_deg
+
+    s = make_sample(GenerateConfig(category="laptop_rigid", split="test", num=200, seed=0), 154)
+    T, diag = np.asarray(s["cam_from_part"])[0], float(np.linalg.norm(s["size_m"][0]))
+    errors = {}
+    for up in (True, False):
+        res = Estimator.load("laptop_rigid", upright=up).predict_sample(s)
+        P = res.parts[0].cam_from_part
+        errors[up] = (rotation_angle_deg(T[:3, :3], P[:3, :3]), float(np.linalg.norm(T[:3, 3] - P[:3, 3])) / diag)
+        assert any("upside down" in w for w in res.warnings) == up
+    assert errors[True][0] < 10.0 and errors[True][1] < 0.1
+    assert errors[False][0] > 150.0 and errors[False][1] > 0.3

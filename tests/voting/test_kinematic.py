@@ -493,3 +493,40 @@ def test_carrying_sizes_names_bad_input():
         JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 1.0, 1.0))
     with pytest.raises(InputError, match="child_size_ratio"):
         JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 0.0, 1.0), child_size_spread=(0.0, 0.0, 0.0))
+
+
+def test_an_upside_down_rigid_part_is_turned_over_and_placed_from_its_points():
+    """laptop_rigid: true poses are left alone; a pose turned upside down (a half turn about the body's x or
+    z) with its centre voted off is turned back onto its upright and its centre placed from its points: the
+    half turn is undone exactly (the shape fit picks it) and the centre moves nearer the truth. A negative
+    margin is named."""
+    from ucope.errors import InputError
+    from ucope.voting import turn_upright
+
+    S = _samples("laptop_rigid", "train", 12)
+    pri = measured_priors("laptop_rigid", S)
+    exact = tried = 0
+    for s in S:
+        T, size, pts = s["cam_from_part"], s["size_m"], np.asarray(s["points"], np.float64)
+        idx = [np.flatnonzero(np.asarray(s["part_labels"]) == 0)]
+        same, turned = turn_upright(T, size, pts, idx, pri)
+        assert not turned.any() and np.array_equal(same, T)
+        for flip in (np.diag([-1.0, -1.0, 1.0]), np.diag([1.0, -1.0, -1.0])):
+            bad = T.copy()
+            bad[0, :3, :3] = T[0, :3, :3] @ flip
+            bad[0, :3, 3] = T[0, :3, 3] + 0.4 * np.linalg.norm(size[0]) * bad[0, :3, 1]  # voted off along its own up
+            fixed, turned = turn_upright(bad, size, pts, idx, pri)
+            tried += 1
+            assert turned.tolist() == [True]
+            assert upright_angle_deg(fixed[0], pri) <= pri.parts[0].upright_cone_deg + 10.0
+            exact += rotation_angle_deg(fixed[0, :3, :3], T[0, :3, :3]) < 1e-3
+            moved = np.linalg.norm(fixed[0, :3, 3] - T[0, :3, 3])
+            assert moved < 0.5 * np.linalg.norm(bad[0, :3, 3] - T[0, :3, 3])
+    assert exact == tried
+    with pytest.raises(InputError, match="margin_deg"):
+        turn_upright(S[0]["cam_from_part"], S[0]["size_m"], S[0]["points"], [np.arange(10)], pri, margin_deg=-1.0)
+
+
+def upright_angle_deg(T, pri):
+    p = pri.parts[0]
+    return float(np.degrees(np.arccos(np.clip(T[:3, p.upright_axis] @ np.asarray(p.upright_in_cam), -1.0, 1.0))))

@@ -594,8 +594,8 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--no-upright",
         action="store_true",
-        help="do not re-place a part voted far off the upright the training views kept it in from its neighbour "
-        "(use with a rolled camera or one below the object)",
+        help="do not re-place a part voted far off the upright the training views kept it in from its neighbour, "
+        "nor turn a rigid object voted upside down over (use with a rolled camera or one below the object)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the subsampling and pair draws (>= 0)")
     p.add_argument("--device", default="cpu", help="torch device of the network: cpu (default), cuda, cuda:1, mps")

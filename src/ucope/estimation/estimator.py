@@ -269,9 +269,11 @@ class Estimator:
             docs/robustness.md).
         upright: re-place a part that voting tilted far off the upright the training views kept it in
             (a laptop base hidden behind its lid) from a neighbour through their joint
-            (:func:`ucope.voting.kinematic.carry_upright`); its score is halved and a warning says so.
-            It assumes an upright camera looking from the training elevations: pass ``False`` for a
-            rolled camera or one below the object. On by default; measured in docs/results.md.
+            (:func:`ucope.voting.kinematic.carry_upright`); its score is halved and a warning says so. A
+            part of an object without joints voted upside down is turned over by a half turn
+            (:func:`ucope.voting.kinematic.turn_upright`, with a warning). It assumes an upright camera
+            looking from the training elevations: pass ``False`` for a rolled camera or one below the object.
+            On by default; measured in docs/results.md.
         denoise_above_m: smooth a cloud whose surface noise (:func:`ucope.geometry.denoise.surface_noise`,
             metres) is above this (:func:`ucope.geometry.denoise.smooth_points`, with a warning); clouds
             under :data:`DENOISE_MIN_POINTS` points never are. ``None`` (here): never; :meth:`load`
@@ -799,6 +801,11 @@ class Estimator:
                 f"part {parts[k].label!r}: its voted pose was tilted far off the upright this model was trained on; "
                 "it was placed from its neighbour through their joint, its score halved (upright=False if the camera is "
                 "rolled or below the object)"
+            )
+        for k in np.flatnonzero(v.get("upright_turned", [])):
+            warnings.append(
+                f"part {parts[k].label!r}: its voted pose was upside down against the upright this model was trained on; "
+                "it was turned over by a half turn (upright=False if the camera is rolled or below the object)"
             )
         for j in np.flatnonzero(v.get("joint_clamped", [])):
             warnings.append(

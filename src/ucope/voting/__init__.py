@@ -16,6 +16,8 @@ measured accuracy.
 * :func:`joint_from_points`, :func:`vote_joints`: joint pivot and axis from the joint heads.
 * :func:`resolve_joint_flips`, :func:`resolve_shape_flips` (:class:`ShapeIndex`), :func:`kinematic_refine`.
 * :func:`carry_upright`, :func:`upright_angles_deg`: a part voted far off its upright, re-placed from a neighbour.
+* :func:`turn_upright`: a part of a rigid object voted upside down, turned over by the half turn its points fit
+  best, its centre placed from its points.
 * :func:`carry_child_sizes`: a child's extents carried from its parent's measured ones where their ratio is fixed.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
 * :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
@@ -45,6 +47,7 @@ from .kinematic import (
     resolve_joint_flips,
     resolve_shape_flips,
     settle_joint_states,
+    turn_upright,
     upright_angles_deg,
 )
 from .object import part_fit, regressed_object, regression_scores, vote_object
@@ -75,6 +78,7 @@ __all__ = [
     "resolve_joint_flips",
     "resolve_shape_flips",
     "carry_upright",
+    "turn_upright",
     "carry_child_sizes",
     "upright_angles_deg",
     "place_prismatic_children",

@@ -20,6 +20,7 @@ from .kinematic import (
     kinematic_refine,
     resolve_joint_flips,
     resolve_shape_flips,
+    turn_upright,
 )
 from .part import VotingOptions, vote_parts
 from .revolution import refine_revolution
@@ -59,7 +60,8 @@ def vote_object(
     (:func:`ucope.voting.kinematic.resolve_joint_flips`; the shape check applies to rigid objects
     only, docs/voting.md says why). With ``upright`` (default) a part voted far off the upright the
     training views kept it in is re-placed from a neighbour through their joint
-    (:func:`ucope.voting.kinematic.carry_upright`).
+    (:func:`ucope.voting.kinematic.carry_upright`), or, in an object without joints, turned over by a half
+    turn (:func:`ucope.voting.kinematic.turn_upright`).
     Joint states come from the voted poses (:func:`ucope.geometry.kinematics.joint_state_from_poses`)
     about the voted joint axis (revolute), or from the box supports minus the joint's
     ``zero_offset_m`` (prismatic). With
@@ -78,7 +80,7 @@ def vote_object(
         ``shape_turned`` ``(K,)`` those turned by the shape check; ``revolved`` ``(K,)`` the parts whose box
         and centre came from their points' surface-of-revolution fit (``options.revolution_factor``,
         objects without joints); ``carried`` ``(K,)`` those re-placed
-        from a neighbour (``upright``); ``joint_clamped`` ``(J,)`` the joints
+        from a neighbour and ``upright_turned`` ``(K,)`` those turned over (``upright``); ``joint_clamped`` ``(J,)`` the joints
         whose state was brought back into its limits; ``face_aligned`` ``(K,)`` the parts whose rotation
         ``align_faces`` turned; ``refined`` tells whether the kinematic refinement ran.
     """
@@ -103,9 +105,14 @@ def vote_object(
         faces = (nrm, part_points, np.array(out["cam_from_part"][0, :3, :3], np.float64))
     else:
         faces = None
+    out["upright_turned"] = np.zeros(K, dtype=bool)
     if priors.num_joints == 0:
         if resolve_flips and shape_flips:
             out["cam_from_part"], out["shape_turned"] = resolve_shape_flips(
+                out["cam_from_part"], out["size_m"], pts, part_points, priors, shapes
+            )
+        if upright:  # no neighbour to carry a part from: an upside-down one is turned over
+            out["cam_from_part"], out["upright_turned"] = turn_upright(
                 out["cam_from_part"], out["size_m"], pts, part_points, priors, shapes
             )
         factor = (options or VotingOptions()).revolution_factor
