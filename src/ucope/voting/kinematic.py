@@ -109,6 +109,20 @@ def _placement_flips(T: np.ndarray, size: np.ndarray, priors: CategoryPriors, fl
             flipped[k] = True
 
 
+SHAPE_CLIP = 0.25
+"""Point-to-template distances (unit-box sizes) are clipped here before averaging (:func:`_shape_misfit`): a few
+stray points do not decide a fit."""
+
+
+def _shape_misfit(
+    tree: cKDTree, points: np.ndarray, cam_from_box: np.ndarray, size_m: np.ndarray, clip: float = SHAPE_CLIP
+) -> float:
+    """Mean distance (unit-box sizes, each clipped at ``clip``) from ``points`` ``(N, 3)``, brought into the box
+    ``cam_from_box`` ``(4, 4)`` of extents ``size_m`` ``(3,)``, to the nearest point of a shape template's k-d tree."""
+    q = (np.asarray(points, np.float64) - cam_from_box[:3, 3]) @ cam_from_box[:3, :3] / np.maximum(size_m, 1e-6)
+    return float(np.minimum(tree.query(q)[0], clip).mean())
+
+
 @dataclass(frozen=True)
 class ShapeIndex:
     """Per part, a k-d tree of the category's shape template (``CategoryPriors.shape_templates``:
@@ -131,7 +145,7 @@ def resolve_shape_flips(
     priors: CategoryPriors,
     shapes: ShapeIndex | None = None,
     margin: float = 0.75,
-    clip: float = 0.25,
+    clip: float = SHAPE_CLIP,
     max_points: int = 1024,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Turn back parts whose voted rotation is a half turn (about one of the part's axes) away from
@@ -527,7 +541,7 @@ def turn_upright(
     priors: CategoryPriors,
     shapes: ShapeIndex | None = None,
     margin_deg: float = UPRIGHT_MARGIN_DEG,
-    clip: float = 0.25,
+    clip: float = SHAPE_CLIP,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Turn a part voted upside down back onto its upright by the half turn its points fit best.
 
@@ -596,10 +610,7 @@ def turn_upright(
         if len(poses) > 1 and not priors.symmetric[k] and len(idx):
             trees = trees or (shapes or ShapeIndex.from_priors(priors)).trees
             if trees[k] is not None:
-                cost = [
-                    np.minimum(trees[k].query((P[idx] - X[:3, 3]) @ X[:3, :3] / np.maximum(S[k], 1e-6))[0], clip).mean()
-                    for X in poses
-                ]  # two turns
+                cost = [_shape_misfit(trees[k], P[idx], X, S[k], clip) for X in poses]  # two turns
                 poses = [poses[int(np.argmin(cost))]]
         T[k] = poses[0]
         turned[k] = True
