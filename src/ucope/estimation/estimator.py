@@ -782,7 +782,7 @@ class Estimator:
             v["cam_from_part"], _ = place_prismatic_children(v["cam_from_part"], v["size_m"], self.priors)
         if self.priors.num_joints > 0:  # the states of the boxes as they now stand, inside the limits
             v = dict(v)
-            before = np.asarray(v.get("joint_clamped", np.zeros(self.priors.num_joints, dtype=bool)), dtype=bool)
+            before = np.asarray(v["joint_clamped"], dtype=bool)  # clamped by voting (vote_object, regressed_object)
             v["cam_from_part"], v["joint_state"], clamped = settle_joint_states(
                 v["cam_from_part"], v["size_m"], v["joint_axis"], v["joint_pivot"], self.priors
             )

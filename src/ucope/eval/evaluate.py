@@ -363,6 +363,7 @@ def evaluate(
     rigid = cfg.num_parts == 1
     map_records = map_records_of(results, kept) if rigid else None
     ok = np.array([view_success(e["parts"]) for e in records])
+    in_bin = {b: np.flatnonzero(np.array(bins) == b) for b in VIEW_BINS if b in bins}  # the views of each bin, in order
     report: dict[str, Any] = {
         "format": EVAL_FORMAT,
         "model": estimator.name,
@@ -410,18 +411,14 @@ def evaluate(
         },
         "view_bins": {
             b: {
-                "num_samples": bins.count(b),
-                "success": float(np.mean(ok[np.array(bins) == b])),
-                "parts": summarize_parts([records[i]["parts"] for i in np.flatnonzero(np.array(bins) == b)]),
+                "num_samples": len(idx),
+                "success": float(np.mean(ok[idx])),
+                "parts": summarize_parts([records[i]["parts"] for i in idx]),
                 "seen_parts": summarize_parts(
-                    [
-                        [p if shown else None for p, shown in zip(records[i]["parts"], seen[i], strict=True)]
-                        for i in np.flatnonzero(np.array(bins) == b)
-                    ]
+                    [[p if shown else None for p, shown in zip(records[i]["parts"], seen[i], strict=True)] for i in idx]
                 ),
             }
-            for b in VIEW_BINS
-            if b in bins
+            for b, idx in in_bin.items()
         },
         "iou_method": IOU_METHOD,
         "ucope_version": __version__,
