@@ -523,8 +523,17 @@ def test_an_upside_down_rigid_part_is_turned_over_and_placed_from_its_points():
             moved = np.linalg.norm(fixed[0, :3, 3] - T[0, :3, 3])
             assert moved < 0.5 * np.linalg.norm(bad[0, :3, 3] - T[0, :3, 3])
     assert exact == tried
+    s0 = S[0]
     with pytest.raises(InputError, match="margin_deg"):
-        turn_upright(S[0]["cam_from_part"], S[0]["size_m"], S[0]["points"], [np.arange(10)], pri, margin_deg=-1.0)
+        turn_upright(s0["cam_from_part"], s0["size_m"], s0["points"], [np.arange(10)], pri, margin_deg=-1.0)
+    with pytest.raises(InputError, match=r"\(1, 4, 4\)"):
+        turn_upright(s0["cam_from_part"][0], s0["size_m"], s0["points"], [np.arange(10)], pri)
+    nan_points = np.array(s0["points"], np.float64)
+    nan_points[3] = np.nan
+    with pytest.raises(InputError, match="finite"):
+        turn_upright(s0["cam_from_part"], s0["size_m"], nan_points, [np.arange(10)], pri)
+    with pytest.raises(InputError, match="positive"):
+        turn_upright(s0["cam_from_part"], np.zeros_like(s0["size_m"]), s0["points"], [np.arange(10)], pri)
 
 
 def upright_angle_deg(T, pri):

@@ -570,7 +570,8 @@ def turn_upright(
         ``(cam_from_part, turned)``: a copy with the turned parts, and ``(K,)`` bool.
 
     Raises:
-        InputError: shapes that do not match the priors, a negative margin.
+        InputError: shapes that do not match the priors, non-finite poses or points, a non-positive size, a
+            negative margin.
     """
     T = np.array(cam_from_part, dtype=np.float64)
     S = np.asarray(size_m, dtype=np.float64)
@@ -581,6 +582,8 @@ def turn_upright(
             f"cam_from_part, size_m, part_points and points must be ({K}, 4, 4), ({K}, 3), {K} index arrays and (N, 3), "
             f"got {T.shape}, {S.shape}, {len(part_points)}, {P.shape}"
         )
+    if not (np.isfinite(T).all() and np.isfinite(P).all() and np.isfinite(S).all()) or (S <= 0).any():
+        raise InputError("cam_from_part and points must be finite and size_m finite and positive")
     if not margin_deg >= 0:
         raise InputError(f"margin_deg must be >= 0, got {margin_deg!r}")
     turned = np.zeros(K, dtype=bool)
