@@ -150,3 +150,32 @@ def test_torch_dataset_fixed_size_and_seeded(tmp_path):
     assert small[0]["points"].shape == (100, 3)
     with pytest.raises(InputError):
         PointCloudDataset(out, num_points=0)
+
+
+def test_stretched_data_set_records_its_range_and_shows_the_stretched_objects(tmp_path, capsys):
+    from ucope.cli.main import main
+    from ucope.objects.categories import make_instance
+
+    out = tmp_path / "st"
+    argv = ["generate", "--category", "dishwasher", "--num", "2", "--seed", "2", "--out", str(out), "--quiet"]
+    assert main([*argv, "--stretch", "0.5,2"]) == 0
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["stretch"] == [0.5, 2.0]
+    cfg = GenerateConfig(category="dishwasher", num=2, seed=2, stretch=(0.5, 2.0))
+    obj = make_instance("dishwasher", "train", 0, 2, stretch_range=(0.5, 2.0))
+    s = load_dataset(out)[0]
+    np.testing.assert_allclose(s["size_m"], obj.size_m, rtol=1e-6)
+    _assert_same(s, make_sample(cfg, 0), normal_atol=2e-3)
+    # the unstretched data set has the same shapes at their generated proportions, and no stretch key
+    plain = make_sample(GenerateConfig(category="dishwasher", num=2, seed=2), 0)
+    np.testing.assert_allclose(plain["size_m"] * np.asarray(obj.stretch), s["size_m"], rtol=1e-6)
+    assert "stretch" not in GenerateConfig(category="dishwasher").settings()
+    # a different range is a different data set: resuming with it is refused, naming the setting
+    capsys.readouterr()
+    assert main([*argv, "--stretch", "0.7,1.5"]) != 0
+    assert "other settings (stretch differ)" in capsys.readouterr().err
+    with pytest.raises(InputError, match="stretch range must satisfy"):
+        GenerateConfig(category="dishwasher", stretch=(1.2, 2.0)).validate()
+    with pytest.raises(SystemExit):
+        main([*argv, "--stretch", "0.5"])
+    assert "expected two numbers LOW,HIGH" in capsys.readouterr().err

@@ -113,3 +113,78 @@ def test_scaled_prismatic_joint_scales_its_limits():
     half = obj.scaled(0.5)
     assert half.joints[0].limits == pytest.approx((0.0, 0.15)) and half.joints[0].rest == pytest.approx(0.05)
     np.testing.assert_allclose(half.object_from_part([0.15])[1, :3, 3], 0.5 * obj.object_from_part([0.3])[1, :3, 3])
+
+
+def _state_zero_geometry(obj):
+    """Every part's vertices in the object frame at joint state 0 (outside the limits allowed)."""
+    T = obj.placements_at_zero()
+    return [np.asarray(p.mesh.vertices) @ t[:3, :3].T + t[:3, 3] for p, t in zip(obj.parts, T, strict=True)]
+
+
+def test_stretched_object_is_the_state_zero_geometry_stretched_and_moves_like_it():
+    obj = make_toy_object()
+    np.testing.assert_allclose(obj.placements_at_zero(), obj.object_from_part([0.0]), atol=1e-15)
+    f = np.array([0.6, 1.8, 1.1])
+    st = obj.stretched(f)
+    assert st.stretch == pytest.approx(tuple(f)) and obj.stretch == (1.0, 1.0, 1.0) and st.scale == obj.scale
+    for a, b in zip(_state_zero_geometry(st), _state_zero_geometry(obj), strict=True):
+        np.testing.assert_allclose(a, b * f, atol=1e-12)
+    np.testing.assert_allclose(st.size_m, obj.size_m * f, atol=1e-12)  # parts aligned with the object axes
+    # the revolute joint (axis -x): the same axis and limits, its pivot line stretched
+    j, js = obj.joints[0], st.joints[0]
+    np.testing.assert_allclose(js.axis, j.axis, atol=1e-12)
+    assert js.limits == j.limits and js.rest == j.rest
+    piv, ax = obj.joints_in_object([0.0])
+    piv_s, ax_s = st.joints_in_object([0.0])
+    np.testing.assert_allclose(piv_s, piv * f, atol=1e-12)
+    # at any state the child turns about the stretched hinge line exactly
+    q = 0.9
+    M = axis_angle_transform(ax_s[0], piv_s[0], q)
+    np.testing.assert_allclose(st.object_from_part([q])[1], M @ st.object_from_part([0.0])[1], atol=1e-12)
+    # stretching twice multiplies the factors
+    assert st.stretched([2.0, 0.5, 1.0]).stretch == pytest.approx((1.2, 0.9, 1.1))
+
+
+def test_stretched_prismatic_joint_scales_its_limits_by_the_stretched_axis():
+    base, T0 = make_part("base", box([0.4, 0.1, 0.4]))
+    slide, T1 = make_part("slide", box([0.2, 0.05, 0.2], [0.0, 0.1, 0.0]))
+    axis = np.array([0.0, 0.6, 0.8])
+    obj = build_object(
+        "toy",
+        "toy/0",
+        [(base, T0), (slide, T1)],
+        joints=[dict(type="prismatic", parent=0, child=1, pivot=(0, 0.1, 0), axis=axis, limits=(0.0, 0.3), rest=0.1)],
+    )
+    f = np.array([1.0, 2.0, 0.5])
+    st = obj.stretched(f)
+    k = np.linalg.norm(f * axis)  # sqrt(1.44 + 0.16)
+    assert st.joints[0].limits == pytest.approx((0.0, 0.3 * k)) and st.joints[0].rest == pytest.approx(0.1 * k)
+    np.testing.assert_allclose(st.joints[0].axis, f * axis / k, atol=1e-12)
+    # a full move of the stretched slide is the original's full move, stretched
+    d = st.object_from_part([0.3 * k])[1, :3, 3] - st.object_from_part([0.0])[1, :3, 3]
+    d0 = obj.object_from_part([0.3])[1, :3, 3] - obj.object_from_part([0.0])[1, :3, 3]
+    np.testing.assert_allclose(d, d0 * f, atol=1e-12)
+
+
+def test_stretched_refuses_bad_factors_tilted_parts_and_unequal_stretch_of_a_symmetric_part():
+    obj = make_toy_object()
+    for bad in ([1.0, 1.0], [1.0, 0.0, 1.0], [1.0, -2.0, 1.0], [1.0, np.nan, 1.0], "abc"):
+        with pytest.raises(InputError, match="stretch factors"):
+            obj.stretched(bad)
+    turn = axis_angle_transform([0, 1, 0], [0, 0, 0], 0.3)[:3, :3]
+    tilted, T = make_part("tilted", box([0.2, 0.2, 0.2]), rotation_object_from_part=turn)
+    one = build_object("toy", "toy/1", [(tilted, np.eye(4))], joints=[])
+    one.stretched([1.0, 1.0, 1.0])  # the root is the object frame: always aligned
+    root, T0 = make_part("root", box([0.4, 0.1, 0.4]))
+    two = build_object(
+        "toy",
+        "toy/2",
+        [(root, T0), (tilted, T)],
+        joints=[dict(type="revolute", parent=0, child=1, pivot=(0, 0, 0), axis=(0, 1, 0), limits=(0.0, 1.0), rest=0.0)],
+    )
+    with pytest.raises(InputError, match="'tilted' is not aligned"):
+        two.stretched([1.0, 2.0, 1.0])
+    cyl = ArticulatedObject("toy", "toy/3", (Part("cyl", box([0.1, 0.3, 0.1]), symmetry="y"),))
+    cyl.stretched([1.5, 0.5, 1.5])
+    with pytest.raises(InputError, match="symmetric about its y axis"):
+        cyl.stretched([1.5, 0.5, 1.0])

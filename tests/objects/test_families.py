@@ -152,3 +152,22 @@ def test_bad_arguments(kwargs):
     args = dict(category="mug", split="test", index=0) | kwargs
     with pytest.raises(InputError):
         make_instance(**args)
+
+
+@pytest.mark.parametrize("name", ["dishwasher", "drawer", "bottle", "camera"])
+def test_stretched_instance_is_the_same_shape_with_factors_from_their_own_stream(name):
+    base = make_instance(name, "train", 3)
+    st = make_instance(name, "train", 3, stretch_range=(0.5, 2.0))
+    f = np.asarray(st.stretch)
+    assert st.params == base.params and st.shape_family == base.shape_family
+    assert np.all((f >= 0.5) & (f <= 2.0)) and not np.allclose(f, 1.0)
+    np.testing.assert_allclose(st.size_m, base.size_m * f, rtol=1e-12)  # every part aligned at state 0
+    # the same factors every time, other factors for another instance, index or seed
+    np.testing.assert_array_equal(make_instance(name, "train", 3, stretch_range=(0.5, 2.0)).stretch, st.stretch)
+    assert make_instance(name, "train", 4, stretch_range=(0.5, 2.0)).stretch != st.stretch
+    assert make_instance(name, "train", 3, seed=1, stretch_range=(0.5, 2.0)).stretch != st.stretch
+    if get_category(name).symmetry[0] == "y":
+        assert f[0] == pytest.approx(f[2])
+    for bad in ((1.2, 2.0), (0.5, 0.9), (0.0, 2.0), (2.0, 0.5), (0.5,), "ab"):
+        with pytest.raises(InputError, match="stretch range"):
+            make_instance(name, "train", 3, stretch_range=bad)

@@ -111,10 +111,22 @@ def _generate_config(args: argparse.Namespace, **overrides):
         images=args.images,
         view=view,
         scale=args.scale,
+        stretch=getattr(args, "stretch", None),
         adjacent_distractor=args.adjacent_distractor,
     )
     kw.update(overrides)
     return GenerateConfig(**kw)
+
+
+def _number_pair(text: str) -> tuple[float, float]:
+    """``"a,b"`` as two floats (an argparse type: a malformed pair is a usage error naming it)."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return float(parts[0]), float(parts[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected two numbers LOW,HIGH, got {text!r}") from None
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
@@ -652,6 +664,14 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="build every instance at this uniform scale (the camera distance " "scales too): the same shapes at another size",
+    )
+    g.add_argument(
+        "--stretch",
+        type=_number_pair,
+        default=None,
+        metavar="LOW,HIGH",
+        help="stretch every instance along its x, y and z axes by factors drawn log-uniformly in [LOW, HIGH] "
+        "(0 < LOW <= 1 <= HIGH): training data with other proportions than the generators make",
     )
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(func=cmd_generate)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import DataError, InputError
 from ..fileio import atomic_write_json, read_json
-from ..objects.categories import SPLITS, get_category, make_instance
+from ..objects.categories import SPLITS, check_stretch_range, get_category, make_instance
 from ..render.views import ViewConfig, render_view
 from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 from ..vocab import JOINT_TYPES
@@ -57,6 +57,10 @@ class GenerateConfig:
             train, val and test, the drawn factor for ood): the same shapes at another size (the scale
             curve of docs/results.md). The camera distance range scales with each instance's factor, so
             an object fills the image as much at any size.
+        stretch: ``(low, high)`` or ``None``: stretch every instance along its x, y, z axes by factors
+            drawn log-uniformly in this range (an augmentation of proportions for training data;
+            :func:`ucope.objects.categories.make_instance`). The camera distance range scales with the
+            geometric mean of each instance's factors.
     """
 
     category: str
@@ -72,6 +76,7 @@ class GenerateConfig:
     background: bool = True
     adjacent_distractor: float = 0.5
     scale: float | None = None
+    stretch: tuple[float, float] | None = None
     spec: dict | None = None
 
     def validate(self) -> None:
@@ -92,6 +97,8 @@ class GenerateConfig:
             raise InputError(f"normal_k must be an integer >= 3, got {self.normal_k!r}")
         if self.scale is not None and not (np.isfinite(self.scale) and self.scale > 0):
             raise InputError(f"scale must be a positive number, got {self.scale!r}")
+        if self.stretch is not None:
+            object.__setattr__(self, "stretch", check_stretch_range(self.stretch))
         if not 0.0 <= float(self.adjacent_distractor) <= 1.0:
             raise InputError(f"adjacent_distractor must be a probability in [0, 1], got {self.adjacent_distractor!r}")
 
@@ -115,6 +122,7 @@ class GenerateConfig:
             "background": bool(self.background),
             "adjacent_distractor": float(self.adjacent_distractor),
             "scale": None if self.scale is None else float(self.scale),
+            **({"stretch": [float(v) for v in self.stretch]} if self.stretch is not None else {}),
             "generator_version": GENERATOR_VERSION,
             "conventions_version": CONVENTIONS_VERSION,
             "format_version": FORMAT_VERSION,
@@ -136,7 +144,9 @@ class GenerateConfig:
             "symmetry": list(spec.symmetry),
             "num_shards": self.num_shards,
             "ucope_version": __version__,
-            "structure": make_instance(self.category, self.split, 0, self.seed, scale=self.scale).structure(),
+            "structure": make_instance(
+                self.category, self.split, 0, self.seed, scale=self.scale, stretch_range=self.stretch
+            ).structure(),
         }
 
 
@@ -163,11 +173,13 @@ _INSTANCE_CACHE: dict = {}
 
 
 def _instance(cfg: GenerateConfig, inst: int):
-    key = (cfg.category, cfg.split, cfg.seed, inst, cfg.scale)
+    key = (cfg.category, cfg.split, cfg.seed, inst, cfg.scale, cfg.stretch)
     obj = _INSTANCE_CACHE.get(key)
     if obj is None:
         _INSTANCE_CACHE.clear()  # views of one instance are consecutive: keep only the latest
-        obj = _INSTANCE_CACHE[key] = make_instance(cfg.category, cfg.split, inst, cfg.seed, scale=cfg.scale)
+        obj = _INSTANCE_CACHE[key] = make_instance(
+            cfg.category, cfg.split, inst, cfg.seed, scale=cfg.scale, stretch_range=cfg.stretch
+        )
     return obj
 
 
@@ -175,11 +187,12 @@ def make_sample(cfg: GenerateConfig, index: int, return_view: bool = False):
     """Build sample ``index`` of the data set described by ``cfg`` (deterministic)."""
     spec = category_of(cfg)
     obj = _instance(cfg, index // cfg.views_per_instance)
-    if obj.scale != 1.0:  # a scaled object: the camera keeps its distance relative to the object's size
-        spec = dataclasses.replace(spec, distance_range_m=tuple(d * obj.scale for d in spec.distance_range_m))
+    size = obj.scale * float(np.prod(obj.stretch)) ** (1.0 / 3.0)
+    if size != 1.0:  # a scaled or stretched object: the camera keeps its distance relative to the object's size
+        spec = dataclasses.replace(spec, distance_range_m=tuple(d * size for d in spec.distance_range_m))
         if cfg.view.distance_range_m is not None:
             cfg = dataclasses.replace(
-                cfg, view=dataclasses.replace(cfg.view, distance_range_m=tuple(d * obj.scale for d in cfg.view.distance_range_m))
+                cfg, view=dataclasses.replace(cfg.view, distance_range_m=tuple(d * size for d in cfg.view.distance_range_m))
             )
     rng = sample_rng(cfg.category, cfg.split, cfg.seed, index)
     for _ in range(50):

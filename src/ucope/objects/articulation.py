@@ -148,6 +148,8 @@ class ArticulatedObject:
         shape_family: the category's shape family the instance was drawn from (``""`` if none).
         scale: the uniform scale factor applied to the generated shape (1: as generated);
             see :meth:`scaled`.
+        stretch: ``(3,)`` the factors along the object frame's x, y, z applied to the generated shape
+            (``(1, 1, 1)``: as generated); see :meth:`stretched`.
     """
 
     category: str
@@ -157,9 +159,11 @@ class ArticulatedObject:
     params: dict = field(default_factory=dict)
     shape_family: str = ""
     scale: float = 1.0
+    stretch: tuple[float, float, float] = (1.0, 1.0, 1.0)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "parts", tuple(self.parts))
+        object.__setattr__(self, "stretch", tuple(float(v) for v in self.stretch))
         object.__setattr__(self, "joints", tuple(self.joints))
         K = len(self.parts)
         if K == 0:
@@ -339,6 +343,81 @@ class ArticulatedObject:
                 )
             )
         return dataclasses.replace(self, parts=parts, joints=tuple(joints), scale=self.scale * f)
+
+    def placements_at_zero(self) -> np.ndarray:
+        """``(K, 4, 4)`` every part's pose in the object frame with every joint at state 0, which may lie
+        outside the joints' limits (:meth:`object_from_part` refuses such states): the frame the
+        generators build parts in."""
+        out = np.empty((self.num_parts, 4, 4))
+        out[0] = np.eye(4)
+        for i in self._fk_order:
+            j = self.joints[i]
+            out[j.child] = out[j.parent] @ j.parent_from_child_zero
+        return out
+
+    def stretched(self, factors: Sequence[float] | np.ndarray) -> ArticulatedObject:
+        """The same object stretched about the object frame's origin by ``factors`` along the object
+        frame's x, y, z axes, applied at joint state 0 (every part at its state-0 placement).
+
+        Each part's mesh is stretched along its own axes by the factors its state-0 orientation maps onto
+        them, so every amodal box stays a box: the parts' state-0 orientations in the object frame must be
+        signed permutations of the axes. Placements and pivots are stretched; a joint axis ``a`` becomes
+        ``normalise(factors * a)``, and a prismatic joint's limits and rest state are multiplied by
+        ``|factors * a|`` (the stretched length of a unit move). Revolute limits are unchanged. A part
+        symmetric about its y axis must get the same factor along its x and z axes. ``stretch`` of the
+        result is ``self.stretch * factors``; ``scale`` and ``params`` are kept.
+
+        Args:
+            factors: ``(3,)`` positive finite factors along the object frame's x, y, z.
+
+        Raises:
+            InputError: non-positive or non-finite factors, a part not axis-aligned at state 0, or a
+                y-symmetric part stretched unequally across its axis.
+        """
+        try:
+            f = np.asarray(factors, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise InputError(f"stretch factors must be 3 positive finite numbers, got {factors!r}") from None
+        if f.shape != (3,) or not np.all(np.isfinite(f)) or np.any(f <= 0):
+            raise InputError(f"stretch factors must be 3 positive finite numbers, got {factors!r}")
+        zero = self.placements_at_zero()
+        R = zero[:, :3, :3]
+        tilted = np.flatnonzero((np.abs(np.abs(R) - np.abs(R).round()) > 1e-6).any(axis=(1, 2)))
+        if len(tilted):
+            k = int(tilted[0])
+            raise InputError(f"part {self.parts[k].name!r} is not aligned with the object axes at state 0: cannot stretch it")
+        in_part = np.abs(R).round().transpose(0, 2, 1) @ f  # (K, 3) factor along each part axis
+        parts = []
+        for p, s in zip(self.parts, in_part, strict=True):
+            if p.symmetry == "y" and not np.isclose(s[0], s[2]):
+                raise InputError(f"part {p.name!r} is symmetric about its y axis: its x and z stretch must be equal, got {s}")
+            verts = np.asarray(p.mesh.vertices) * s
+            mesh = trimesh.Trimesh(vertices=verts, faces=np.asarray(p.mesh.faces), process=False)
+            parts.append(Part(name=p.name, symmetry=p.symmetry, mesh=mesh))
+        placed = zero.copy()
+        placed[:, :3, 3] *= f
+        joints = []
+        for j in self.joints:
+            parent = zero[j.parent]
+            pivot_obj = f * (parent[:3, :3] @ j.pivot + parent[:3, 3])
+            axis_obj = f * (parent[:3, :3] @ j.axis)
+            length = float(np.linalg.norm(axis_obj))
+            k = length if JointType.parse(j.type) == JointType.PRISMATIC else 1.0
+            inv = invert_transform(placed[j.parent])
+            joints.append(
+                Joint(
+                    type=j.type,
+                    parent=j.parent,
+                    child=j.child,
+                    pivot=apply_transform(inv, pivot_obj[None])[0],
+                    axis=inv[:3, :3] @ (axis_obj / length),
+                    limits=(j.limits[0] * k, j.limits[1] * k),
+                    rest=j.rest * k,
+                    parent_from_child_zero=inv @ placed[j.child],
+                )
+            )
+        stretch = tuple(float(a * b) for a, b in zip(self.stretch, f, strict=True))
+        return dataclasses.replace(self, parts=tuple(parts), joints=tuple(joints), stretch=stretch)
 
     def bounds(self, state: Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """``(2, 3)`` axis-aligned bounds of the whole object in the object frame at ``state``."""

@@ -15,7 +15,9 @@ Splits (:data:`SPLITS`):
   uniformly (:meth:`ArticulatedObject.scaled`) by a factor drawn log-uniformly in :data:`OOD_SCALE_RANGE`.
 
 :func:`make_instance` can also build any split's instance at an explicit ``scale`` (the same shape, scaled:
-for scale curves) or of an explicit ``family`` (for pictures and tests).
+for scale curves) or of an explicit ``family`` (for pictures and tests), and stretch it along the object
+axes by factors drawn in a ``stretch_range`` (an augmentation of proportions for training data: the factors
+come from a stream of their own, so the shapes are those of the unstretched data set).
 """
 
 from __future__ import annotations
@@ -41,6 +43,8 @@ __all__ = [
     "make_instance",
     "instance_rng",
     "instance_family_and_scale",
+    "instance_stretch",
+    "check_stretch_range",
     "register_category",
     "registered_doc",
 ]
@@ -249,6 +253,33 @@ def instance_family_and_scale(category: str, split: str, index: int, seed: int =
     return _draw_family_and_scale(get_category(category), split, instance_rng(category, split, index, seed))
 
 
+def check_stretch_range(stretch_range) -> tuple[float, float]:
+    """``stretch_range`` as a checked ``(low, high)`` pair with ``0 < low <= 1 <= high``; raises
+    :class:`InputError` naming what is wrong."""
+    try:
+        lo, hi = (float(v) for v in stretch_range)
+    except (TypeError, ValueError):
+        raise InputError(f"stretch range must be two numbers (low, high), got {stretch_range!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= 1.0 <= hi):
+        raise InputError(f"stretch range must satisfy 0 < low <= 1 <= high, got ({lo}, {hi})")
+    return lo, hi
+
+
+def instance_stretch(obj: ArticulatedObject, split: str, index: int, seed: int, stretch_range: tuple[float, float]) -> np.ndarray:
+    """``(3,)`` the stretch factors along the object's x, y, z for instance ``index``: each drawn
+    log-uniformly in ``stretch_range`` from a stream of its own (keyed by category, split, seed and index;
+    independent of the instance's shape stream). A part symmetric about its y axis gets the geometric mean
+    of the two factors across that axis on both (so it stays symmetric)."""
+    lo, hi = check_stretch_range(stretch_range)
+    ss = np.random.SeedSequence(entropy=int(seed), spawn_key=(_key(obj.category), _key("stretch"), _key(split), int(index)))
+    f = np.exp(np.random.default_rng(ss).uniform(np.log(lo), np.log(hi), size=3))
+    for p, T in zip(obj.parts, obj.placements_at_zero(), strict=True):
+        if p.symmetry == "y":  # the object axes the part's x and z lie along (signed permutation)
+            a, b = (int(np.argmax(np.abs(T[:3, c]))) for c in (0, 2))
+            f[a] = f[b] = float(np.sqrt(f[a] * f[b]))
+    return f
+
+
 def make_instance(
     category: str,
     split: str,
@@ -257,6 +288,7 @@ def make_instance(
     *,
     scale: float | None = None,
     family: str | None = None,
+    stretch_range: tuple[float, float] | None = None,
 ) -> ArticulatedObject:
     """Build instance ``index`` of ``category`` for ``split`` (one of :data:`SPLITS`).
 
@@ -270,6 +302,9 @@ def make_instance(
             scales 0.5, 1 and 2 is one shape at three sizes (:meth:`ArticulatedObject.scaled`).
         family: build a shape of this family instead of the drawn one (the rest of the stream is the same);
             any family of the category, held out or not, for pictures and tests. Data sets never set it.
+        stretch_range: ``(low, high)``, ``0 < low <= 1 <= high``: stretch the built object along its x, y
+            and z axes by factors drawn log-uniformly in it (:func:`instance_stretch`,
+            :meth:`ArticulatedObject.stretched`), after any scaling; ``None`` (default): no stretch.
 
     Returns:
         The object; its ``shape_family`` and ``scale`` say what was built.
@@ -291,4 +326,7 @@ def make_instance(
             raise InputError(f"scale must be a positive finite number, got {scale!r}")
         factor = float(scale)
     obj = spec.build(rng, f"{category}/{split}/{seed}/{index:06d}", drawn)
-    return obj.scaled(factor) if factor != 1.0 else obj
+    obj = obj.scaled(factor) if factor != 1.0 else obj
+    if stretch_range is not None:
+        obj = obj.stretched(instance_stretch(obj, split, index, seed, stretch_range))
+    return obj
