@@ -160,7 +160,7 @@ def test_stretched_data_set_records_its_range_and_shows_the_stretched_objects(tm
     argv = ["generate", "--category", "dishwasher", "--num", "2", "--seed", "2", "--out", str(out), "--quiet"]
     assert main([*argv, "--stretch", "0.5,2"]) == 0
     meta = json.loads((out / "meta.json").read_text())
-    assert meta["stretch"] == [0.5, 2.0]
+    assert meta["stretch"] == [0.5, 2.0] and meta["stretch_share"] == 1.0
     cfg = GenerateConfig(category="dishwasher", num=2, seed=2, stretch=(0.5, 2.0))
     obj = make_instance("dishwasher", "train", 0, 2, stretch_range=(0.5, 2.0))
     s = load_dataset(out)[0]
@@ -176,6 +176,8 @@ def test_stretched_data_set_records_its_range_and_shows_the_stretched_objects(tm
     assert "other settings (stretch differ)" in capsys.readouterr().err
     with pytest.raises(InputError, match="stretch range must satisfy"):
         GenerateConfig(category="dishwasher", stretch=(1.2, 2.0)).validate()
+    with pytest.raises(InputError, match="stretch share must be a fraction"):
+        GenerateConfig(category="dishwasher", stretch=(0.5, 2.0), stretch_share=-0.1).validate()
     with pytest.raises(SystemExit):
         main([*argv, "--stretch", "0.5"])
     assert "expected two numbers LOW,HIGH" in capsys.readouterr().err

@@ -171,3 +171,13 @@ def test_stretched_instance_is_the_same_shape_with_factors_from_their_own_stream
     for bad in ((1.2, 2.0), (0.5, 0.9), (0.0, 2.0), (2.0, 0.5), (0.5,), "ab"):
         with pytest.raises(InputError, match="stretch range"):
             make_instance(name, "train", 3, stretch_range=bad)
+    # a share of the instances: the stretched ones get the factors every instance gets at share 1
+    some = [make_instance(name, "train", i, stretch_range=(0.5, 2.0), stretch_share=0.5).stretch for i in range(12)]
+    every = [make_instance(name, "train", i, stretch_range=(0.5, 2.0)).stretch for i in range(12)]
+    kept = [a == (1.0, 1.0, 1.0) for a in some]
+    assert 0 < sum(kept) < 12
+    assert all(a == b for a, b, k in zip(some, every, kept, strict=True) if not k)
+    none = make_instance(name, "train", 3, stretch_range=(0.5, 2.0), stretch_share=0.0)
+    np.testing.assert_array_equal(none.size_m, base.size_m)
+    with pytest.raises(InputError, match="stretch share"):
+        make_instance(name, "train", 3, stretch_range=(0.5, 2.0), stretch_share=1.5)

@@ -112,6 +112,7 @@ def _generate_config(args: argparse.Namespace, **overrides):
         view=view,
         scale=args.scale,
         stretch=getattr(args, "stretch", None),
+        stretch_share=getattr(args, "stretch_share", 1.0),
         adjacent_distractor=args.adjacent_distractor,
     )
     kw.update(overrides)
@@ -672,6 +673,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="LOW,HIGH",
         help="stretch every instance along its x, y and z axes by factors drawn log-uniformly in [LOW, HIGH] "
         "(0 < LOW <= 1 <= HIGH): training data with other proportions than the generators make",
+    )
+    g.add_argument(
+        "--stretch-share",
+        type=float,
+        default=1.0,
+        metavar="P",
+        help="with --stretch: the share of instances stretched, the others kept as generated (default 1)",
     )
     g.add_argument("--quiet", action="store_true", help="no progress bar")
     g.set_defaults(func=cmd_generate)

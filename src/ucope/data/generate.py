@@ -61,6 +61,8 @@ class GenerateConfig:
             drawn log-uniformly in this range (an augmentation of proportions for training data;
             :func:`ucope.objects.categories.make_instance`). The camera distance range scales with the
             geometric mean of each instance's factors.
+        stretch_share: with ``stretch``, the share of instances stretched (in [0, 1]; the others keep the
+            generated proportions).
     """
 
     category: str
@@ -77,6 +79,7 @@ class GenerateConfig:
     adjacent_distractor: float = 0.5
     scale: float | None = None
     stretch: tuple[float, float] | None = None
+    stretch_share: float = 1.0
     spec: dict | None = None
 
     def validate(self) -> None:
@@ -99,6 +102,8 @@ class GenerateConfig:
             raise InputError(f"scale must be a positive number, got {self.scale!r}")
         if self.stretch is not None:
             object.__setattr__(self, "stretch", check_stretch_range(self.stretch))
+            if not 0.0 <= float(self.stretch_share) <= 1.0:
+                raise InputError(f"stretch share must be a fraction in [0, 1], got {self.stretch_share!r}")
         if not 0.0 <= float(self.adjacent_distractor) <= 1.0:
             raise InputError(f"adjacent_distractor must be a probability in [0, 1], got {self.adjacent_distractor!r}")
 
@@ -122,7 +127,11 @@ class GenerateConfig:
             "background": bool(self.background),
             "adjacent_distractor": float(self.adjacent_distractor),
             "scale": None if self.scale is None else float(self.scale),
-            **({"stretch": [float(v) for v in self.stretch]} if self.stretch is not None else {}),
+            **(
+                {"stretch": [float(v) for v in self.stretch], "stretch_share": float(self.stretch_share)}
+                if self.stretch is not None
+                else {}
+            ),
             "generator_version": GENERATOR_VERSION,
             "conventions_version": CONVENTIONS_VERSION,
             "format_version": FORMAT_VERSION,
@@ -145,7 +154,13 @@ class GenerateConfig:
             "num_shards": self.num_shards,
             "ucope_version": __version__,
             "structure": make_instance(
-                self.category, self.split, 0, self.seed, scale=self.scale, stretch_range=self.stretch
+                self.category,
+                self.split,
+                0,
+                self.seed,
+                scale=self.scale,
+                stretch_range=self.stretch,
+                stretch_share=self.stretch_share,
             ).structure(),
         }
 
@@ -173,12 +188,12 @@ _INSTANCE_CACHE: dict = {}
 
 
 def _instance(cfg: GenerateConfig, inst: int):
-    key = (cfg.category, cfg.split, cfg.seed, inst, cfg.scale, cfg.stretch)
+    key = (cfg.category, cfg.split, cfg.seed, inst, cfg.scale, cfg.stretch, cfg.stretch_share)
     obj = _INSTANCE_CACHE.get(key)
     if obj is None:
         _INSTANCE_CACHE.clear()  # views of one instance are consecutive: keep only the latest
         obj = _INSTANCE_CACHE[key] = make_instance(
-            cfg.category, cfg.split, inst, cfg.seed, scale=cfg.scale, stretch_range=cfg.stretch
+            cfg.category, cfg.split, inst, cfg.seed, scale=cfg.scale, stretch_range=cfg.stretch, stretch_share=cfg.stretch_share
         )
     return obj
 

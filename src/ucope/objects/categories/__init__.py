@@ -265,14 +265,23 @@ def check_stretch_range(stretch_range) -> tuple[float, float]:
     return lo, hi
 
 
-def instance_stretch(obj: ArticulatedObject, split: str, index: int, seed: int, stretch_range: tuple[float, float]) -> np.ndarray:
+def instance_stretch(
+    obj: ArticulatedObject, split: str, index: int, seed: int, stretch_range: tuple[float, float], share: float = 1.0
+) -> np.ndarray:
     """``(3,)`` the stretch factors along the object's x, y, z for instance ``index``: each drawn
     log-uniformly in ``stretch_range`` from a stream of its own (keyed by category, split, seed and index;
-    independent of the instance's shape stream). A part symmetric about its y axis gets the geometric mean
-    of the two factors across that axis on both (so it stays symmetric)."""
+    independent of the instance's shape stream), then one more draw from it leaves the instance unstretched
+    (all ones) unless it falls below ``share`` (in [0, 1]; 1: every instance stretched). A part symmetric
+    about its y axis gets the geometric mean of the two factors across that axis on both (so it stays
+    symmetric)."""
     lo, hi = check_stretch_range(stretch_range)
+    if not 0.0 <= float(share) <= 1.0:
+        raise InputError(f"stretch share must be a fraction in [0, 1], got {share!r}")
     ss = np.random.SeedSequence(entropy=int(seed), spawn_key=(_key(obj.category), _key("stretch"), _key(split), int(index)))
-    f = np.exp(np.random.default_rng(ss).uniform(np.log(lo), np.log(hi), size=3))
+    rng = np.random.default_rng(ss)
+    f = np.exp(rng.uniform(np.log(lo), np.log(hi), size=3))
+    if rng.random() >= float(share):
+        return np.ones(3)
     for p, T in zip(obj.parts, obj.placements_at_zero(), strict=True):
         if p.symmetry == "y":  # the object axes the part's x and z lie along (signed permutation)
             a, b = (int(np.argmax(np.abs(T[:3, c]))) for c in (0, 2))
@@ -289,6 +298,7 @@ def make_instance(
     scale: float | None = None,
     family: str | None = None,
     stretch_range: tuple[float, float] | None = None,
+    stretch_share: float = 1.0,
 ) -> ArticulatedObject:
     """Build instance ``index`` of ``category`` for ``split`` (one of :data:`SPLITS`).
 
@@ -305,6 +315,8 @@ def make_instance(
         stretch_range: ``(low, high)``, ``0 < low <= 1 <= high``: stretch the built object along its x, y
             and z axes by factors drawn log-uniformly in it (:func:`instance_stretch`,
             :meth:`ArticulatedObject.stretched`), after any scaling; ``None`` (default): no stretch.
+        stretch_share: the share of instances stretched (the others keep their proportions; drawn from
+            the stretch stream, :func:`instance_stretch`).
 
     Returns:
         The object; its ``shape_family`` and ``scale`` say what was built.
@@ -328,5 +340,6 @@ def make_instance(
     obj = spec.build(rng, f"{category}/{split}/{seed}/{index:06d}", drawn)
     obj = obj.scaled(factor) if factor != 1.0 else obj
     if stretch_range is not None:
-        obj = obj.stretched(instance_stretch(obj, split, index, seed, stretch_range))
+        f = instance_stretch(obj, split, index, seed, stretch_range, stretch_share)
+        obj = obj.stretched(f) if np.any(f != 1.0) else obj
     return obj
