@@ -178,6 +178,8 @@ def test_stretched_data_set_records_its_range_and_shows_the_stretched_objects(tm
         GenerateConfig(category="dishwasher", stretch=(1.2, 2.0)).validate()
     with pytest.raises(InputError, match="stretch share must be a fraction"):
         GenerateConfig(category="dishwasher", stretch=(0.5, 2.0), stretch_share=-0.1).validate()
+    with pytest.raises(InputError, match="a stretch share needs a stretch range"):
+        GenerateConfig(category="dishwasher", stretch_share=0.5).validate()
     with pytest.raises(SystemExit):
         main([*argv, "--stretch", "0.5"])
     assert "expected two numbers LOW,HIGH" in capsys.readouterr().err

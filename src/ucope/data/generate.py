@@ -104,6 +104,8 @@ class GenerateConfig:
             object.__setattr__(self, "stretch", check_stretch_range(self.stretch))
             if not 0.0 <= float(self.stretch_share) <= 1.0:
                 raise InputError(f"stretch share must be a fraction in [0, 1], got {self.stretch_share!r}")
+        elif self.stretch_share != 1.0:
+            raise InputError("a stretch share needs a stretch range (--stretch LOW,HIGH) to draw the factors from")
         if not 0.0 <= float(self.adjacent_distractor) <= 1.0:
             raise InputError(f"adjacent_distractor must be a probability in [0, 1], got {self.adjacent_distractor!r}")
 
