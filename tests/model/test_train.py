@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import torch
 from test_network import TINY_ENCODER
@@ -327,3 +328,38 @@ def test_a_voting_model_starts_the_regression_baseline_with_its_encoder(tmp_path
     got = reg.state_dict()
     for k, v in shared.items():
         assert torch.allclose(got[k], v, atol=1e-6), k
+
+
+def test_on_the_fly_training_stretches_its_stream_and_records_it(tmp_path):
+    from ucope.data.generate import GenerateConfig, make_sample
+    from ucope.data.stream import GeneratedSamples
+
+    # the stretched stream is exactly the stretched data set that `ucope generate --stretch` writes
+    stream = GeneratedSamples("dishwasher", "train", 3, epoch_size=4, stretch=(0.5, 2.0), stretch_share=0.5)
+    cfg = GenerateConfig(category="dishwasher", split="train", seed=3, num=4, stretch=(0.5, 2.0), stretch_share=0.5)
+    for i in range(2):
+        a, b = stream[i], make_sample(cfg, i)
+        np.testing.assert_array_equal(a["points"], b["points"])
+        np.testing.assert_array_equal(a["size_m"], b["size_m"])
+    assert stream.meta["stretch"] == [0.5, 2.0] and stream.meta["stretch_share"] == 0.5
+    with pytest.raises(InputError, match="not both"):
+        GeneratedSamples("dishwasher", config=cfg, stretch=(0.5, 2.0))
+
+    card = train(tiny_train_config(tmp_path / "run", steps=2, stretch=(0.7, 1.5), stretch_share=0.5))
+    assert card["training_data"]["stretch"] == [0.7, 1.5] and card["training_data"]["stretch_share"] == 0.5
+    assert json.loads((tmp_path / "run" / "model_card.json").read_text())["train_config"]["stretch"] == [0.7, 1.5]
+    with pytest.raises(TrainingError, match="stretch"):  # resuming with another stretch trains another model
+        train(tiny_train_config(tmp_path / "run", steps=3, stretch=(0.5, 2.0), resume=True))
+
+
+def test_a_stretch_needs_generated_samples_and_a_valid_range(tmp_path, capsys):
+    with pytest.raises(InputError, match="ucope generate --stretch"):
+        train(tiny_train_config(tmp_path, on_the_fly=False, data=str(tmp_path), stretch=(0.5, 2.0)))
+    with pytest.raises(InputError, match="stretch range must satisfy"):
+        train(tiny_train_config(tmp_path, stretch=(1.2, 2.0)))
+    with pytest.raises(InputError, match="a stretch share needs a stretch range"):
+        train(tiny_train_config(tmp_path, stretch_share=0.5))
+    args = ["train", "--category", "laptop", "--on-the-fly", "--steps", "1", "--out", str(tmp_path / "r")]
+    assert main([*args, "--stretch", "0.5,2", "--stretch-share", "1.5"]) == 2
+    err = capsys.readouterr().err
+    assert "ucope train: error:" in err and "stretch share must be a fraction" in err and "Traceback" not in err

@@ -253,6 +253,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         data=args.data,
         val_data=args.val_data,
         on_the_fly=args.on_the_fly,
+        stretch=args.stretch,
+        stretch_share=args.stretch_share,
         steps=args.steps,
         epochs=args.epochs,
         batch_size=args.batch_size,
@@ -751,6 +753,20 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=int, default=0, help="seed of the weights, sample order and draws")
     t.add_argument("--data-seed", type=int, default=0, help="seed of generated samples (--on-the-fly, default validation set)")
     t.add_argument("--epoch-size", type=int, default=4000, help="samples per epoch with --on-the-fly")
+    t.add_argument(
+        "--stretch",
+        type=_number_pair,
+        default=None,
+        metavar="LOW,HIGH",
+        help="with --on-the-fly: stretch the generated instances as `ucope generate --stretch` does",
+    )
+    t.add_argument(
+        "--stretch-share",
+        type=float,
+        default=1.0,
+        metavar="P",
+        help="with --stretch: the share of instances stretched (default 1)",
+    )
     t.add_argument("--val-samples", type=int, default=200, help="validation samples (default 200)")
     t.add_argument("--workers", type=int, default=0, help="data-loader worker processes (default 0)")
     t.add_argument("--log-every", type=int, default=25)

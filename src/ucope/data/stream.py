@@ -27,7 +27,13 @@ class GeneratedSamples(Sequence):
         category, split, seed: the stream (as for ``ucope generate``).
         epoch_size: samples per epoch.
         views_per_instance: consecutive views of each object instance.
-        config: optional :class:`GenerateConfig` overriding the defaults (its ``num`` is ignored).
+        stretch, stretch_share: instances stretched (a share of them) by per-axis factors drawn in
+            ``stretch`` ``(low, high)``, as :class:`GenerateConfig`'s; ``None``: as generated.
+        config: optional :class:`GenerateConfig` overriding the defaults (its ``num`` is ignored; with it,
+            ``stretch`` and ``stretch_share`` must be left at their defaults).
+
+    Raises:
+        InputError: a bad epoch size, range or share (named), or a stretch given beside ``config``.
     """
 
     def __init__(
@@ -38,13 +44,23 @@ class GeneratedSamples(Sequence):
         epoch_size: int = 4000,
         views_per_instance: int = 8,
         config: GenerateConfig | None = None,
+        stretch: tuple[float, float] | None = None,
+        stretch_share: float = 1.0,
     ):
         if int(epoch_size) <= 0:
             raise InputError(f"epoch_size must be positive, got {epoch_size}")
         if config is None:
             config = GenerateConfig(
-                category=category, split=split, seed=seed, num=STREAM_LENGTH, views_per_instance=views_per_instance
+                category=category,
+                split=split,
+                seed=seed,
+                num=STREAM_LENGTH,
+                views_per_instance=views_per_instance,
+                stretch=stretch,
+                stretch_share=stretch_share,
             )
+        elif stretch is not None or stretch_share != 1.0:
+            raise InputError("give the stretch in the GenerateConfig (config=) or as arguments, not both")
         else:
             config = GenerateConfig(**{**config.__dict__, "num": STREAM_LENGTH})
         config.validate()
