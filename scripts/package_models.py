@@ -96,9 +96,15 @@ SWITCHES = {
 measured. ``--<key with dashes> CAT...`` names the categories that get it on."""
 
 
-def set_defaults(info: dict, reports: Path, cat: str, **lists: list[str] | None) -> None:
-    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist, and each
-    switch of :data:`SWITCHES` given a list (``key=[categories]``) set to ``cat in`` that list; the other
+RESTARTS_ON = 4
+"""``info.defaults.restarts`` of the models ``--restarts CAT...`` names (``Estimator(restarts=...)``: up to this
+many further estimates while the object score is low; docs/results.md has the measurements); others get 0."""
+
+
+def set_defaults(info: dict, reports: Path, cat: str, restarts: list[str] | None = None, **lists: list[str] | None) -> None:
+    """``info["defaults"]["refine"]`` from the refine-off / refine-on reports of ``cat``, if both exist, each
+    switch of :data:`SWITCHES` given a list (``key=[categories]``) set to ``cat in`` that list, and
+    ``restarts`` (given a list) :data:`RESTARTS_ON` for the categories in it, 0 for the others; the other
     defaults (``denoise_above_m``) are kept. Raises ``TypeError`` on a key that is not a switch."""
     unknown = sorted(set(lists) - set(SWITCHES))
     if unknown:
@@ -111,6 +117,8 @@ def set_defaults(info: dict, reports: Path, cat: str, **lists: list[str] | None)
     for key, cats in lists.items():
         if cats is not None:
             info.setdefault("defaults", {})[key] = cat in cats
+    if restarts is not None:
+        info.setdefault("defaults", {})["restarts"] = RESTARTS_ON if cat in restarts else 0
 
 
 def refresh_figures(dest: Path, reports: Path, cats: list[str], **lists) -> int:
@@ -171,8 +179,17 @@ def main() -> int:
             help=f"the categories whose models {what} by default (info.defaults.{key}; {where} has the measurements); "
             "others get it off; omitted: left as it is",
         )
+    ap.add_argument(
+        "--restarts",
+        nargs="*",
+        default=None,
+        metavar="CAT",
+        help=f"the categories whose models take up to {RESTARTS_ON} further estimates while their score is low "
+        "(info.defaults.restarts; docs/results.md has the measurements); others get 0; omitted: left as it is",
+    )
     args = ap.parse_args()
     lists = {key: getattr(args, key) for key in SWITCHES}
+    lists["restarts"] = args.restarts
     dest = pretrained_dir()
     if args.figures_only:
         return refresh_figures(dest, args.reports, args.categories or [p.stem for p in sorted(dest.glob("*.json"))], **lists)

@@ -54,6 +54,7 @@ ALIGN_CATS=${ALIGN_CATS-"camera dishwasher drawer"}  # rotations aligned to the 
 WIDE_CATS=${WIDE_CATS-"eyeglasses laptop camera bottle mug drawer"}  # the scale search at 0.8, 1 and 1.25x the typical size (docs/results.md)
 FIT_CATS=${FIT_CATS-"dishwasher bottle"}  # box axes a view sees whole set from their points (docs/results.md)
 ANCHOR_CATS=${ANCHOR_CATS-"eyeglasses"}  # the root part's faced faces anchored to its points (docs/results.md)
+RESTART_CATS=${RESTART_CATS-"drawer"}  # further draws of the network's points while the score is low (docs/results.md)
 OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
@@ -193,7 +194,8 @@ calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and sc
   esac
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
+    --restarts $RESTART_CATS
   if [[ " $DENOISE_CATS " == *" $c "* ]]; then
     "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
   fi
@@ -302,7 +304,8 @@ if [ "$PACKAGE" = 1 ]; then
   # stored weights, float16 where the check allowed it).
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS
+    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
+    --restarts $RESTART_CATS
   for c in $CATS; do
     rm -f "$WORK/reports/$c.json"
     "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet

@@ -9,7 +9,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 
-from package_models import set_defaults  # noqa: E402
+from package_models import RESTARTS_ON, set_defaults  # noqa: E402
 
 
 def _report(rot, success, iou):
@@ -40,3 +40,7 @@ def test_defaults_from_reports_and_lists_keep_the_others(tmp_path):
     other = {}
     set_defaults(other, tmp_path, "mug")  # no reports, no lists: nothing to set
     assert other == {}
+    set_defaults(info, tmp_path, "drawer", restarts=["drawer"])  # a count, not a switch
+    assert info["defaults"]["restarts"] == RESTARTS_ON and info["defaults"]["grow_boxes"] is False
+    set_defaults(info, tmp_path, "drawer", restarts=["mug"])
+    assert info["defaults"]["restarts"] == 0

@@ -475,6 +475,38 @@ def test_the_anchor_faces_default_and_flag_reach_the_estimator(tiny_run, tmp_pat
     assert Estimator.load(tiny_run).faced_gap is not None
 
 
+def test_restarts_are_checked_taken_from_the_model_and_reach_the_estimator(tiny_run, tmp_path):
+    """``restarts``: an integer from 0 to MAX_RESTARTS (named otherwise); ``load`` takes the model JSON's
+    ``info.defaults.restarts`` (0 without it) unless given; ``--restarts N`` reaches it; a model without a
+    calibration (raw vote scores do not predict success) never restarts."""
+    import argparse
+    import shutil
+
+    from ucope.cli.outputs import estimator_options
+    from ucope.estimation.estimator import MAX_RESTARTS
+
+    for bad in (-1, MAX_RESTARTS + 1, 1.5, True, "2"):
+        with pytest.raises(InputError, match="restarts must be an integer"):
+            Estimator.load(tiny_run, restarts=bad)
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    meta = json.loads((run / "model.json").read_text())
+    meta.setdefault("info", {})["defaults"] = {"restarts": 3}
+    (run / "model.json").write_text(json.dumps(meta))
+    assert Estimator.load(run).restarts == 3 and Estimator.load(run, restarts=0).restarts == 0
+    assert Estimator.load(tiny_run).restarts == 0
+    base = dict(
+        pairs=100, no_awareness=False, refine=None, seed=0, keep_flips=False, no_upright=False, no_rescale=False,
+        remove_plane=None, device="cpu", no_score_filter=False, pairs_from_cloud=False, no_vote_caps=False,
+    )  # fmt: skip
+    assert estimator_options(argparse.Namespace(**base))["restarts"] is None
+    assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, restarts=2))).restarts == 2
+    est = Estimator.load(run)
+    assert est.calibration is None
+    s = make_sample(GenerateConfig(category="laptop", split="test", num=1), 0)
+    np.testing.assert_array_equal(est.predict_sample(s).cam_from_part, Estimator.load(tiny_run).predict_sample(s).cam_from_part)
+
+
 def test_the_shipped_dishwasher_measures_a_cabinet_shorter_than_any_it_was_trained_on():
     """OOD view 80 (``ucope generate --category dishwasher --split ood --num 100``, seed 0): a countertop
     dishwasher of a held-out family, wider than tall, seen from its side (yaw -87 degrees). Voted, its body's

@@ -575,6 +575,14 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "the model's own; on for the shipped models where it measured better, docs/results.md)",
     )
     p.add_argument(
+        "--restarts",
+        type=int,
+        default=None,
+        metavar="N",
+        help="up to N further estimates from other draws of the network's points while the best score stays low, "
+        "keeping the highest-scored (default: the model's own; docs/results.md)",
+    )
+    p.add_argument(
         "--no-place-children",
         action="store_true",
         help="keep a drawer where voting put it (default: centred in its cabinet where the model's training views "

@@ -204,6 +204,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         recrop=not getattr(args, "no_recrop", False),
         scale_search=not getattr(args, "no_scale_search", False),
         wide_scale_search=getattr(args, "wide_scale_search", None),
+        restarts=getattr(args, "restarts", None),
         place_children=not getattr(args, "no_place_children", False),
         device=args.device,
         score_filter=False if args.no_score_filter else None,

@@ -385,6 +385,7 @@ def evaluate(
             "recrop": getattr(estimator, "recrop", False),
             "scale_search": getattr(estimator, "scale_search", False),
             "wide_scale_search": getattr(estimator, "wide_scale_search", False),
+            "restarts": getattr(estimator, "restarts", 0),
             "place_children": getattr(estimator, "place_children", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
