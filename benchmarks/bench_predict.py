@@ -42,6 +42,7 @@ def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool | No
         "pairs": pairs,
         "normals_given": normals,
         "refine": est.refine,
+        "restarts": est.restarts,
         "median_ms": med,
         "max_total_ms": max(r["total"] for r in rows),
         "repeats": repeats,

@@ -816,7 +816,7 @@ def main() -> int:
             "out of training, sizes scaled by log-uniform 0.5-2x, [conventions.md](conventions.md)), 100 views, evaluated "
             "with the model's shipped defaults (rescaling, plane removal, refinement, box growth, face alignment, "
             "the three-size scale search, the fitted extents and anchored faces, the drawer placement, the settled joint "
-            "states; its stored weights, "
+            "states, the drawer's restarts; its stored weights, "
             "half precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "
             "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error and mean translation "
