@@ -921,8 +921,11 @@ def main() -> int:
         ]
         for r in b["results"]:
             m = r["median_ms"]
+            switches = (("refine", r.get("refine")), (f"restarts {r.get('restarts')}", r.get("restarts")))
+            how = ", ".join(w for w, on in switches if on)
+            label = f"{r['category']} ({how})" if how else r["category"]
             out.append(
-                f"| {r['category']}{' (refine)' if r.get('refine') else ''} | {r['num_parts']} | {r['pairs']:,} | "
+                f"| {label} | {r['num_parts']} | {r['pairs']:,} | "
                 f"{'given' if r['normals_given'] else 'estimated'} | "
                 f"{m['preprocess']:.1f} | {m['encoder']:.1f} | {m['pair_encoder']:.1f} | {m['voting']:.1f} | "
                 f"**{m['total']:.1f}** |"
