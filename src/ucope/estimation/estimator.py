@@ -166,9 +166,10 @@ and 89). docs/results.md has the OOD split and the models it is on for."""
 RESTART_BELOW = 0.8
 """With ``Estimator(restarts=N)``, a further estimate from another draw of the network's points and of the pairs
 runs while the best object score so far (a calibrated success probability) is below this, up to ``N`` more.
-Measured on 100 drawer test views, each estimated from five draws, every order of the draws simulated
-(success %, estimates per view): one draw 44.6, 1; at most 3 / 5 draws below 0.5: 47.7, 1.8 / 49.1, 2.4;
-below 0.8: 49.6, 2.5 / 52.6, 3.9; always all five: 53.0, 5. docs/results.md has the models it is on for."""
+Measured by benchmarks/bench_restarts.py on 100 drawer test views, each estimated with five estimator seeds,
+the rule simulated on every order of the draws (success %, estimates per view): one draw 44.4, 1; at most 3 / 5
+draws below 0.5: 47.4, 1.76 / 49.1, 2.44; below 0.8: 49.3, 2.50 / 52.6, 3.91; always all five: 53.0, 5.
+docs/results.md has the models it is on for."""
 
 MAX_RESTARTS = 16
 """The most further estimates ``Estimator(restarts=...)`` takes."""
@@ -345,7 +346,7 @@ class Estimator:
             the pairs (at the scale the estimate so far was made at), while the best object score so far is
             below :data:`RESTART_BELOW`; the highest-scored estimate stands (ties: the earlier). One draw of
             1,024 points decides much of an estimate: on 100 drawer test views five draws succeeded on 40-49 %
-            each and at least one of them on 57 %. Only for a model with a ``calibration``; each further
+            each and at least one of them on 61 %. Only for a model with a ``calibration``; each further
             estimate costs about one more. 0 here; :meth:`load` takes the model's default (``info.defaults.
             restarts``, set where it measured better: docs/results.md).
 
