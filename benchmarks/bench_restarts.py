@@ -7,7 +7,7 @@ For every model, ``--num`` views of its category's ``--split`` (``GenerateConfig
 the views ``ucope generate --split test --num 200`` writes and docs/results.md evaluates) are each estimated
 ``--draws`` times with estimator seeds 0, 1, ... (other draws of the network's points and pairs; every other
 setting the model's default, restarts off). A view succeeds when every part is within 10 degrees and 10 % of
-its ground-truth box diagonal (:func:`ucope.eval.evaluate.sample_errors`).
+its ground-truth box diagonal (:func:`ucope.eval.evaluate.view_success`, as ``ucope eval`` counts it).
 
 Reported per model: the success of each draw; the best of ``k`` draws kept by the highest object score (the
 mean over every choice of ``k`` draws); the success if any draw succeeds; and the restart rule of
@@ -33,10 +33,9 @@ import torch
 from ucope import __version__
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.estimation import Estimator
-from ucope.eval.evaluate import sample_errors
+from ucope.eval.evaluate import sample_errors, view_success
 from ucope.fileio import atomic_write_json
 
-ROT_DEG, TRANS_REL = 10.0, 0.10
 THRESHOLDS = (0.5, 0.8, 1.01)
 """Restart thresholds simulated (1.01: always restart)."""
 
@@ -49,10 +48,7 @@ def draws_of(model: str, samples: list[dict], draws: int) -> tuple[np.ndarray, n
         est = Estimator.load(model, seed=d, restarts=0)
         for i, s in enumerate(samples):
             res = est.predict_sample(s)  # its points and normals, as ucope eval
-            err = sample_errors(res, s)["parts"]
-            diag = np.linalg.norm(np.asarray(s["size_m"], np.float64), axis=1)
-            within = [e["rotation_deg"] < ROT_DEG and e["translation_m"] < TRANS_REL * g for e, g in zip(err, diag, strict=True)]
-            ok[i, d] = all(within)
+            ok[i, d] = view_success(sample_errors(res, s)["parts"])
             score[i, d] = res.score
     return ok, score
 

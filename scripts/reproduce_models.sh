@@ -227,7 +227,7 @@ round3_recipe() {  # round3_recipe CATEGORY
   esac
 }
 
-# The fourth stage (2026-12-06): the dishwasher's third recipe again on fresh views of data seed 5 (16 min on
+# The fourth stage (2026-12-06): the dishwasher's third recipe again on fresh views of data seed 5 (26 min on
 # 1 thread beside two other trainings). The same stage on views stretched 0.5-2x per axis (`ucope generate
 # --stretch 0.5,2`, all or half of the instances) measured and not adopted (docs/results.md).
 round4_recipe() {  # round4_recipe CATEGORY

@@ -534,24 +534,23 @@ class Estimator:
         t_prep = time.perf_counter() - t0
         memo: dict = {}  # passes already made, by their input and scale (the searches repeat some)
         est = self._estimate(pts, nrm, units, roll, len(raw), normalise=None, memo=memo)
+        timings = dict(est.timings)  # of every estimate made, whichever stands
+
+        def better(kept: _Estimate, alt: _Estimate) -> _Estimate:
+            """The higher-scored of two estimates (ties: the one kept so far), ``alt``'s time counted."""
+            nonlocal timings
+            timings = {key: timings[key] + alt.timings[key] for key in timings}
+            return alt if _object_score(alt.final) > _object_score(kept.final) else kept
+
         if self.rescale and self.scale_search and self.calibration is not None and _object_score(est.final) < SCALE_SEARCH_BELOW:
-            timings = dict(est.timings)
             for factor in WIDE_SCALE_SEARCH if self.wide_scale_search else (1.0,):
-                alt = self._estimate(pts, nrm, units, roll, len(raw), normalise=factor, memo=memo)
-                timings = {key: timings[key] + alt.timings[key] for key in timings}
-                if _object_score(alt.final) > _object_score(est.final):
-                    est = alt
-            est.timings = timings
-        if self.restarts and self.calibration is not None:
-            timings, draw = dict(est.timings), 0
+                est = better(est, self._estimate(pts, nrm, units, roll, len(raw), normalise=factor, memo=memo))
+        if self.calibration is not None:
+            draw = 0
             while draw < self.restarts and _object_score(est.final) < RESTART_BELOW:
                 draw += 1
-                alt = self._estimate(pts, nrm, units, roll, len(raw), normalise=est.normalise, memo=memo, draw=draw)
-                timings = {key: timings[key] + alt.timings[key] for key in timings}
-                if _object_score(alt.final) > _object_score(est.final):
-                    est = alt
-            est.timings = timings
-        final, labels, planes, timings = est.final, est.labels, est.planes, est.timings
+                est = better(est, self._estimate(pts, nrm, units, roll, len(raw), normalise=est.normalise, memo=memo, draw=draw))
+        final, labels, planes = est.final, est.labels, est.planes
         warnings += est.warnings
         warnings += final.input_warnings + final.warnings
         warnings = list(dict.fromkeys(warnings))  # a warning both passes gave, once
