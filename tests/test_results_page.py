@@ -168,3 +168,37 @@ def test_success_intervals_are_wilson_score_intervals():
     assert hi == pytest.approx(1.0) and lo == pytest.approx(0.9630, abs=1e-4)
     rep = {"success": {"fraction": 0.475}, "data": {"num_samples": 200}}
     assert success_interval_cell(rep) == "48 % (200; 41-54)" and success_interval_cell(None) == "-"
+
+
+def test_saved_reports_get_the_success_over_the_parts_in_view_from_their_records(tmp_path):
+    """A full report from before the field: the slim copy counts, per view, only the parts with at least
+    SEEN_MIN_POINTS points (the eval's rule), overall and per view bin; the page's cell shows it for
+    articulated categories only."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from make_results import in_view_cell, save_reports
+
+    from ucope.eval.evaluate import SEEN_MIN_POINTS
+
+    good, bad = {"rotation_deg": 1.0, "translation_norm": 0.01}, {"rotation_deg": 40.0, "translation_norm": 0.3}
+    recs = [
+        {"parts": [good, bad], "visible_points": [900, 0], "view_yaw_deg": 170.0},  # back, lid hidden: in view right
+        {"parts": [good, bad], "visible_points": [900, SEEN_MIN_POINTS], "view_yaw_deg": -175.0},  # back, lid shown
+        {"parts": [good, good], "visible_points": [900, 400], "view_yaw_deg": 10.0},  # front
+        {"parts": [bad, good], "visible_points": [900, 5], "view_yaw_deg": 20.0},  # front, base wrong and shown
+    ]
+    rep = {
+        "part_names": ["base", "lid"],
+        "success": {"definition": "every part < 10 deg and < 10 % of its box diagonal", "fraction": 0.25},
+        "view_bins": {"back": {"success": 0.0}, "front": {"success": 0.5}},
+        "samples": recs,
+    }
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / "oddname_ood.json").write_text(json.dumps(rep))
+    save_reports(tmp_path / "src", tmp_path / "dest", None)
+    slim = json.loads((tmp_path / "dest" / "oddname_ood.json").read_text())
+    assert "samples" not in slim
+    assert slim["success"]["in_view_fraction"] == pytest.approx(0.5)
+    assert slim["view_bins"]["back"]["success_in_view"] == pytest.approx(0.5)
+    assert slim["view_bins"]["front"]["success_in_view"] == pytest.approx(0.5)
+    assert in_view_cell(slim) == "50 %"
+    assert in_view_cell(dict(slim, part_names=["body"])) == "-" and in_view_cell(None) == "-"

@@ -352,3 +352,44 @@ def test_seen_parts_leave_out_the_views_that_hide_a_part():
                 assert seen["rotation_deg"]["mean"][k] is None
     assert sum(b["seen_parts"]["num_missing"][1] for b in rep["view_bins"].values()) >= len(hidden)
     assert "views hiding each part" in format_report(rep)
+
+
+def test_success_in_view_counts_only_the_parts_a_view_shows():
+    """A lid 30 degrees off in four views that hide it and in one that shows it: every view with the wrong lid
+    fails, but counting the parts in view only the one that shows it does, overall and per bin."""
+    from ucope.eval.evaluate import SEEN_MIN_POINTS, parts_in_view, view_bin, view_success
+
+    data = samples("laptop", 12)
+    hidden, wrong = {1, 4, 7, 10}, {1, 4, 7, 10, 5}
+    views = []
+    for i in range(12):
+        s = dict(data[i])
+        if i in hidden:
+            lab = np.asarray(s["part_labels"]).copy()
+            lab[lab == 1] = 0  # the lid shows no point
+            s["part_labels"] = lab
+        views.append(s)
+
+    class LidOff(Oracle):
+        def predict_sample(self, s):
+            r = super().predict_sample(s)
+            if s["index"] in wrong:
+                turn = Rotation.from_euler("z", 30, degrees=True).as_matrix()
+                r.parts[1].cam_from_part[:3, :3] = r.parts[1].cam_from_part[:3, :3] @ turn
+            return r
+
+    rep = evaluate(LidOff("laptop"), views, progress=False)
+    assert [s["index"] for s in views] == list(range(12))
+    assert rep["success"]["fraction"] == pytest.approx(7 / 12)
+    assert rep["success"]["in_view_fraction"] == pytest.approx(11 / 12)
+    yaws = [s["view_yaw_deg"] for s in rep["samples"]]
+    for name, b in rep["view_bins"].items():
+        mine = [i for i, y in enumerate(yaws) if view_bin(y) == name]
+        assert b["success"] == pytest.approx(np.mean([i not in wrong for i in mine]))
+        assert b["success_in_view"] == pytest.approx(np.mean([i != 5 for i in mine]))
+    assert "every part in view right: 91.7" in format_report(rep)
+    assert parts_in_view([SEEN_MIN_POINTS, SEEN_MIN_POINTS - 1]) == [True, False]
+    errs = [{"rotation_deg": 1.0, "translation_norm": 0.01}, {"rotation_deg": 30.0, "translation_norm": 0.01}]
+    assert not view_success(errs) and view_success(errs, [True, False]) and not view_success(errs, [False, True])
+    with pytest.raises(InputError, match="shown must flag each of the 2 parts"):
+        view_success(errs, [True])

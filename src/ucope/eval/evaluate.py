@@ -14,8 +14,10 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
      "map": compute_map(...) | None,         # rigid (K = 1) categories: NOCS-style mAP, our exact protocol
      "map_nocs": compute_map(..., protocol="nocs") | None,   # the same under NOCS's reference protocol
      "map_records": [...] | None,            # their inputs (one GT, one prediction per view)
-     "success": {"definition", "fraction"},  # views with every part < 10 deg and < 10 % of its box diagonal
-     "view_bins": {"front" | "side" | "back": {"num_samples", "success", "parts": summarize_parts(...),
+     "success": {"definition", "fraction",   # views with every part < 10 deg and < 10 % of its box diagonal
+                 "in_view_fraction"},        # ... every part the view shows (parts_in_view)
+     "view_bins": {"front" | "side" | "back": {"num_samples", "success", "success_in_view",
+                                               "parts": summarize_parts(...),
                                                "seen_parts": summarize_parts(...)}},   # parts seen only
      "iou_method": ..., "hardware": {...}, "ucope_version": ...,
      "samples": [{"index", "instance_id", "view_yaw_deg", "visible_points": [K], "parts": [part_errors],
@@ -25,7 +27,8 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
 :data:`SEEN_MIN_POINTS` of the view's points are the part's (``visible_points``, the ground-truth labels);
 a part hidden in a view (a closed dishwasher door seen from behind, a drawer behind its cabinet) counts
 there as missing (``num_missing``). Its pose is a guess that the points cannot check, so the errors of the
-seen parts say how the estimate holds up from behind apart from what no view from there shows.
+seen parts say how the estimate holds up from behind apart from what no view from there shows; likewise
+``in_view_fraction`` / ``success_in_view`` count a view as a success when every part it shows is right.
 
 :func:`format_report` prints it as the paper's tables print (rotation in degrees, translation in
 metres, IoU in percent, time in seconds), means with medians beside them. :func:`rigid_figures`
@@ -74,6 +77,7 @@ __all__ = [
     "SUCCESS_ROT_DEG",
     "SUCCESS_TRANS_REL",
     "view_success",
+    "parts_in_view",
     "view_bin",
     "view_yaw_deg",
     "visible_points",
@@ -159,10 +163,28 @@ def visible_points(sample: Mapping, num_parts: int) -> list[int]:
     return [int(n) for n in np.bincount(labels, minlength=num_parts)]
 
 
-def view_success(part_errs: Sequence[Mapping]) -> bool:
+def view_success(part_errs: Sequence[Mapping], shown: Sequence[bool] | None = None) -> bool:
     """Whether every part of one view (its :func:`ucope.eval.metrics.part_errors`) is within
-    :data:`SUCCESS_ROT_DEG` and :data:`SUCCESS_TRANS_REL`."""
-    return all(e["rotation_deg"] < SUCCESS_ROT_DEG and e["translation_norm"] < SUCCESS_TRANS_REL for e in part_errs)
+    :data:`SUCCESS_ROT_DEG` and :data:`SUCCESS_TRANS_REL`; with ``shown`` (one flag per part), every part
+    flagged (those the view shows, :func:`parts_in_view`): the others' poses are guesses no point can check.
+
+    Raises:
+        InputError: ``shown`` of another length than ``part_errs``."""
+    if shown is None:
+        shown = [True] * len(part_errs)
+    if len(shown) != len(part_errs):
+        raise InputError(f"shown must flag each of the {len(part_errs)} parts, got {len(shown)} flags")
+    return all(
+        e["rotation_deg"] < SUCCESS_ROT_DEG and e["translation_norm"] < SUCCESS_TRANS_REL
+        for e, s in zip(part_errs, shown, strict=True)
+        if s
+    )
+
+
+def parts_in_view(visible: Sequence[int]) -> list[bool]:
+    """Per part, whether a view shows it: at least :data:`SEEN_MIN_POINTS` of the view's points are its own
+    (``visible``: the count per part, :func:`visible_points`)."""
+    return [int(n) >= SEEN_MIN_POINTS for n in visible]
 
 
 def view_yaw_deg(sample: Mapping) -> float:
@@ -337,7 +359,7 @@ def evaluate(
         yaw = view_yaw_deg(s)
         bins.append(view_bin(yaw))
         vis = visible_points(s, cfg.num_parts)
-        seen.append([n >= SEEN_MIN_POINTS for n in vis])
+        seen.append(parts_in_view(vis))
         records.append(e)
         results.append(r)
         if cfg.num_parts == 1:
@@ -363,6 +385,7 @@ def evaluate(
     rigid = cfg.num_parts == 1
     map_records = map_records_of(results, kept) if rigid else None
     ok = np.array([view_success(e["parts"]) for e in records])
+    ok_in_view = np.array([view_success(e["parts"], shown) for e, shown in zip(records, seen, strict=True)])
     in_bin = {b: np.flatnonzero(np.array(bins) == b) for b in VIEW_BINS if b in bins}  # the views of each bin, in order
     report: dict[str, Any] = {
         "format": EVAL_FORMAT,
@@ -409,11 +432,13 @@ def evaluate(
         "success": {
             "definition": f"every part < {SUCCESS_ROT_DEG:g} deg and < {100 * SUCCESS_TRANS_REL:g} % of its box diagonal",
             "fraction": float(np.mean(ok)),
+            "in_view_fraction": float(np.mean(ok_in_view)),
         },
         "view_bins": {
             b: {
                 "num_samples": len(idx),
                 "success": float(np.mean(ok[idx])),
+                "success_in_view": float(np.mean(ok_in_view[idx])),
                 "parts": summarize_parts([records[i]["parts"] for i in idx]),
                 "seen_parts": summarize_parts(
                     [[p if shown else None for p, shown in zip(records[i]["parts"], seen[i], strict=True)] for i in idx]
@@ -486,11 +511,19 @@ def format_report(report: Mapping) -> str:
     seg = report.get("segmentation")
     if seg:
         lines.append(f"  segmentation IoU (%)    {_cells(seg['iou'], '{:.1f}', 100.0)}; accuracy {100 * seg['accuracy']:.1f}%")
+    succ = report.get("success")
+    if succ:
+        line = f"  success (%)             {100 * succ['fraction']:.1f}"
+        if succ.get("in_view_fraction") is not None and report["part_names"][1:]:
+            line += f"  (every part in view right: {100 * succ['in_view_fraction']:.1f})"
+        lines.append(line)
     for b, vb in (report.get("view_bins") or {}).items():
         line = (
             f"  {b + ' views':12s} ({vb['num_samples']:3d}) rotation {_stat_cells(vb['parts']['rotation_deg'], '{:.1f}')}; "
             f"success {100 * vb['success']:.0f} %"
         )
+        if vb.get("success_in_view") is not None and vb["success_in_view"] != vb["success"]:
+            line += f" ({100 * vb['success_in_view']:.0f} % counting the parts in view)"
         seen = vb.get("seen_parts")
         if seen and any(seen["num_missing"]):  # parts some views of the bin do not show
             line += (
