@@ -43,6 +43,7 @@ def bench(model: str, pairs: int, repeats: int, normals: bool, refine: bool | No
         "normals_given": normals,
         "refine": est.refine,
         "restarts": est.restarts,
+        "free_space": est.free_space,
         "median_ms": med,
         "max_total_ms": max(r["total"] for r in rows),
         "repeats": repeats,

@@ -91,6 +91,7 @@ SWITCHES = {
     "wide_scale_search": ("let the scale search also try 0.8x and 1.25x the typical size", "docs/results.md"),
     "fit_extents": ("set the box axes a view sees whole from their points", "docs/results.md"),
     "anchor_faces": ("anchor the root part's faced faces to its points", "docs/results.md"),
+    "free_space": ("turn parts they barely see about their joint to where the points say they can be", "docs/results.md"),
 }
 """The model switches packaging sets per category (``info.defaults.<key>``): what each does, where it was
 measured. ``--<key with dashes> CAT...`` names the categories that get it on."""

@@ -24,7 +24,9 @@
 # normals of their flat faces (ucope.voting.align_parts_to_faces), WIDE_CATS search three scales where the
 # first estimate scores low (Estimator(wide_scale_search=True)), FIT_CATS set the box axes a view sees whole
 # from their points (ucope.voting.fit_seen_extents), ANCHOR_CATS put the root part's faces that the camera faces
-# where its points put them (ucope.voting.anchor_faced_faces; both tables are measured by `ucope train`).
+# where its points put them (ucope.voting.anchor_faced_faces; both tables are measured by `ucope train`),
+# FREE_CATS turn a part they barely see about its joint to where the points say it can be
+# (ucope.voting.place_weak_parts; the calibration is fitted with it on).
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
 # ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
@@ -55,6 +57,7 @@ WIDE_CATS=${WIDE_CATS-"eyeglasses laptop camera bottle mug drawer"}  # the scale
 FIT_CATS=${FIT_CATS-"dishwasher bottle"}  # box axes a view sees whole set from their points (docs/results.md)
 ANCHOR_CATS=${ANCHOR_CATS-"eyeglasses"}  # the root part's faced faces anchored to its points (docs/results.md)
 RESTART_CATS=${RESTART_CATS-"drawer"}  # further draws of the network's points while the score is low (docs/results.md)
+FREE_CATS=${FREE_CATS-"laptop"}  # parts barely seen turned about their joint by free space (docs/results.md)
 OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
@@ -195,7 +198,7 @@ calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and sc
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
     --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
-    --restarts $RESTART_CATS
+    --free-space $FREE_CATS --restarts $RESTART_CATS
   if [[ " $DENOISE_CATS " == *" $c "* ]]; then
     "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
   fi
@@ -305,7 +308,7 @@ if [ "$PACKAGE" = 1 ]; then
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
     --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
-    --restarts $RESTART_CATS
+    --free-space $FREE_CATS --restarts $RESTART_CATS
   for c in $CATS; do
     rm -f "$WORK/reports/$c.json"
     "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet

@@ -29,10 +29,11 @@ def test_defaults_from_reports_and_lists_keep_the_others(tmp_path):
         align_faces=["drawer"],
         wide_scale_search=["mug"],
         fit_extents=["drawer"],
+        free_space=["laptop"],
     )
     d = info["defaults"]
     assert d["refine"] is True and d["remove_plane"] is False and d["grow_boxes"] is True and d["align_faces"] is True
-    assert d["wide_scale_search"] is False and d["fit_extents"] is True
+    assert d["wide_scale_search"] is False and d["fit_extents"] is True and d["free_space"] is False
     assert d["denoise_above_m"] == 0.002 and d["decided_from"] == ["drawer_norefine.json", "drawer_refine.json"]
     set_defaults(info, tmp_path, "drawer", grow_boxes=[])  # an empty list turns it off; omitted lists leave it
     assert info["defaults"]["grow_boxes"] is False and info["defaults"]["remove_plane"] is False

@@ -541,6 +541,14 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "model's own; on for the shipped models where it measured better, docs/results.md)",
     )
     p.add_argument(
+        "--free-space",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="turn a part that shows few points (a laptop base behind its lid) about its joint to where its box hides "
+        "none of the points the camera sees and its own points lie on it (default: the model's own; on for the "
+        "shipped models where it measured better, docs/results.md)",
+    )
+    p.add_argument(
         "--denoise-above",
         type=float,
         default=None,

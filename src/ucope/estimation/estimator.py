@@ -61,6 +61,7 @@ from ..voting import (
     fit_seen_extents,
     grow_to_points,
     place_prismatic_children,
+    place_weak_parts,
     regressed_object,
     settle_joint_states,
     vote_object,
@@ -338,6 +339,11 @@ class Estimator:
             parts symmetric about y are left alone), before the joint checks and the part scores. Off
             here; :meth:`load` takes the model's default (on for box-like parts where it measured better:
             docs/results.md).
+        free_space: turn a part that shows few points (below ``WEAK_SHARE`` of the object's; a laptop base
+            behind its lid) about its revolute joint to where its box hides none of the other parts' points
+            from the camera and its own points lie on it (:func:`ucope.voting.place_weak_parts`), after the
+            box steps, before the joint states are read off the boxes. Off here; :meth:`load` takes the
+            model's default (on where it measured better: docs/results.md).
         place_children: put each prismatic child (a drawer) where the training views always had it across
             its joint's axis (left-right in its cabinet: :func:`ucope.voting.place_prismatic_children`),
             after the part scores and the box growth. Acts only on models whose priors measured that
@@ -381,6 +387,7 @@ class Estimator:
         fit_extents: bool = False,
         anchor_faces: bool = False,
         align_faces: bool = False,
+        free_space: bool = False,
         place_children: bool = True,
         restarts: int = 0,
     ):
@@ -429,6 +436,7 @@ class Estimator:
         self.fit_extents = bool(fit_extents)
         self.anchor_faces = bool(anchor_faces)
         self.align_faces = bool(align_faces)
+        self.free_space = bool(free_space)
         self.place_children = bool(place_children)
         self.restarts = int(restarts)
 
@@ -444,6 +452,7 @@ class Estimator:
         fit_extents: bool | None = None,
         anchor_faces: bool | None = None,
         align_faces: bool | None = None,
+        free_space: bool | None = None,
         wide_scale_search: bool | None = None,
         restarts: int | None = None,
         **kwargs,
@@ -452,9 +461,9 @@ class Estimator:
         (``Estimator.load("laptop")``; :func:`ucope.model.checkpoint.list_pretrained` lists them).
 
         ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` /
-        ``fit_extents=None`` / ``anchor_faces=None`` / ``align_faces=None`` / ``wide_scale_search=None`` /
-        ``restarts=None`` take the model's own defaults (``info.defaults`` of its JSON, set when it was packaged
-        where they measured better). Other keyword arguments: as the constructor."""
+        ``fit_extents=None`` / ``anchor_faces=None`` / ``align_faces=None`` / ``free_space=None`` /
+        ``wide_scale_search=None`` / ``restarts=None`` take the model's own defaults (``info.defaults`` of its JSON,
+        set when it was packaged where they measured better). Other keyword arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
@@ -468,6 +477,7 @@ class Estimator:
             fit_extents=fit_extents,
             anchor_faces=anchor_faces,
             align_faces=align_faces,
+            free_space=free_space,
             wide_scale_search=wide_scale_search,
         )
         for key, value in switches.items():  # None: the model's own default (off where it has none)
@@ -820,6 +830,22 @@ class Estimator:
         if self.place_children:  # after growth, which may have moved a drawer's centre sideways
             v = dict(v)
             v["cam_from_part"], _ = place_prismatic_children(v["cam_from_part"], v["size_m"], self.priors)
+        if self.free_space and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
+            v = dict(v)
+            cam = centre * (1.0 - scale)  # the camera in the cloud's frame (scaled about centre; the roll turns about it)
+            T0 = np.array(v["cam_from_part"], np.float64)
+            T0[:, :3, 3] -= cam
+            T1, v["free_space_turned"] = place_weak_parts(
+                T0,
+                v["size_m"],
+                v["joint_axis"],
+                np.asarray(v["joint_pivot"], np.float64) - cam,
+                p_net - cam,
+                np.where(labels < K, labels, -1),
+                self.priors,
+            )
+            T1[:, :3, 3] += cam
+            v["cam_from_part"] = T1
         if self.priors.num_joints > 0:  # the states of the boxes as they now stand, inside the limits
             v = dict(v)
             before = np.asarray(v["joint_clamped"], dtype=bool)  # clamped by voting (vote_object, regressed_object)
@@ -841,6 +867,12 @@ class Estimator:
                 f"part {parts[k].label!r}: its voted pose was tilted far off the upright this model was trained on; "
                 "it was placed from its neighbour through their joint, its score halved (upright=False if the camera is "
                 "rolled or below the object)"
+            )
+        for k in np.flatnonzero(v.get("free_space_turned", [])):
+            warnings.append(
+                f"part {parts[k].label!r}: it showed few points; it was turned by {np.degrees(v['free_space_turned'][k]):.0f} "
+                "degrees about its joint to where its box hides none of the points the camera sees and its own points "
+                "lie on it"
             )
         for k in np.flatnonzero(v.get("upright_turned", [])):
             warnings.append(

@@ -416,6 +416,7 @@ def evaluate(
             "fit_extents": getattr(estimator, "fit_extents", False),
             "anchor_faces": getattr(estimator, "anchor_faces", False),
             "align_faces": getattr(estimator, "align_faces", False),
+            "free_space": getattr(estimator, "free_space", False),
             "revolution_factor": getattr(getattr(estimator, "options", None), "revolution_factor", None),
         },
         "data": dict(data_info or {}, num_samples=n),

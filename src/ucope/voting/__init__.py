@@ -28,6 +28,8 @@ measured accuracy.
 * :func:`anchor_faced_faces`: box centres moved so that the faces the camera faces sit where the points put
   them (the face-to-points gaps the training views measured).
 * :func:`align_to_faces`, :func:`align_parts_to_faces`: rotations turned so that box axes meet the normals of flat faces.
+* :func:`place_weak_parts`: a part the camera barely sees, turned about its joint to where its box hides none of the
+  points the camera sees and its own points lie on it (free space).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
 from .extent import anchor_faced_faces, fit_seen_extents, grow_to_points
 from .faces import align_parts_to_faces, align_to_faces
+from .freespace import place_weak_parts
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
     ShapeIndex,
@@ -92,4 +95,5 @@ __all__ = [
     "anchor_faced_faces",
     "align_to_faces",
     "align_parts_to_faces",
+    "place_weak_parts",
 ]
