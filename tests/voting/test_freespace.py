@@ -6,11 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from ucope.errors import InputError
 from ucope.geometry.kinematics import joint_state_from_poses
-from ucope.geometry.transforms import make_transform, random_rotation
+from ucope.geometry.transforms import axis_angle_transform, make_transform, random_rotation
 from ucope.priors import CategoryPriors, JointPrior, PartPrior
 from ucope.vocab import JointType
 from ucope.voting import place_weak_parts
@@ -78,9 +77,7 @@ def _scene(rng):
 
 
 def _turn(T, axis, pivot, deg):
-    M = make_transform(Rotation.from_rotvec(np.radians(deg) * np.asarray(axis)).as_matrix(), np.zeros(3))
-    M[:3, 3] = pivot - M[:3, :3] @ pivot
-    return M @ T
+    return axis_angle_transform(axis, pivot, np.radians(deg)) @ T
 
 
 def test_a_lid_voted_over_the_keyboard_or_off_its_points_is_turned_back():
@@ -144,3 +141,24 @@ def test_bad_input_is_named():
         place_weak_parts(T, S, axis[None], hinge[None], pts, labels, pr, weak_share=1.5)
     with pytest.raises(InputError, match="step_deg"):
         place_weak_parts(T, S, axis[None], hinge[None], pts, labels, pr, step_deg=0.0)
+
+
+def test_a_camera_off_the_origin_is_the_scene_moved_to_it():
+    """``camera``: the same answer as the whole scene moved so that the camera is at the origin (a cloud scaled
+    about its centre has its camera there)."""
+    rng = np.random.default_rng(3)
+    T, S, axis, hinge, pts, labels = _scene(rng)
+    voted = T.copy()
+    voted[1] = _turn(T[1], axis, hinge, 50.0)
+    c = np.array([0.2, -0.1, 0.3])
+    moved = voted.copy()
+    moved[:, :3, 3] += c
+    want, want_turn = place_weak_parts(voted, S, axis[None], hinge[None], pts, labels, _priors())
+    got, got_turn = place_weak_parts(moved, S, axis[None], (hinge + c)[None], pts + c, labels, _priors(), camera=c)
+    assert want_turn[1] != 0.0
+    np.testing.assert_allclose(got_turn, want_turn, atol=1e-12)
+    np.testing.assert_allclose(got[:, :3, 3] - c, want[:, :3, 3], atol=1e-9)
+    np.testing.assert_allclose(got[:, :3, :3], want[:, :3, :3], atol=1e-12)
+    np.testing.assert_array_equal(segments_through_box(moved, S, pts + c, camera=c), segments_through_box(voted, S, pts))
+    with pytest.raises(InputError, match="camera"):
+        place_weak_parts(voted, S, axis[None], hinge[None], pts, labels, _priors(), camera=[0.0, np.nan, 0.0])

@@ -832,20 +832,16 @@ class Estimator:
             v["cam_from_part"], _ = place_prismatic_children(v["cam_from_part"], v["size_m"], self.priors)
         if self.free_space and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
             v = dict(v)
-            cam = centre * (1.0 - scale)  # the camera in the cloud's frame (scaled about centre; the roll turns about it)
-            T0 = np.array(v["cam_from_part"], np.float64)
-            T0[:, :3, 3] -= cam
-            T1, v["free_space_turned"] = place_weak_parts(
-                T0,
+            v["cam_from_part"], v["free_space_turned"] = place_weak_parts(
+                v["cam_from_part"],
                 v["size_m"],
                 v["joint_axis"],
-                np.asarray(v["joint_pivot"], np.float64) - cam,
-                p_net - cam,
+                v["joint_pivot"],
+                p_net,
                 np.where(labels < K, labels, -1),
                 self.priors,
+                camera=centre * (1.0 - scale),  # the cloud was scaled about centre (the roll turns about the camera)
             )
-            T1[:, :3, 3] += cam
-            v["cam_from_part"] = T1
         if self.priors.num_joints > 0:  # the states of the boxes as they now stand, inside the limits
             v = dict(v)
             before = np.asarray(v["joint_clamped"], dtype=bool)  # clamped by voting (vote_object, regressed_object)

@@ -515,7 +515,7 @@ def format_report(report: Mapping) -> str:
     succ = report.get("success")
     if succ:
         line = f"  success (%)             {100 * succ['fraction']:.1f}"
-        if succ.get("in_view_fraction") is not None and report["part_names"][1:]:
+        if succ.get("in_view_fraction") is not None and len(report["part_names"]) > 1:  # a rigid object's one part is in view
             line += f"  (every part in view right: {100 * succ['in_view_fraction']:.1f})"
         lines.append(line)
     for b, vb in (report.get("view_bins") or {}).items():

@@ -89,8 +89,9 @@ def rotation_about_axis(axis: np.ndarray, angle_rad: np.ndarray | float) -> np.n
     return Rotation.from_rotvec(flat).as_matrix().reshape(rotvec.shape[:-1] + (3, 3))
 
 
-def axis_angle_transform(axis: np.ndarray, pivot: np.ndarray, angle_rad: float) -> np.ndarray:
-    """``(4, 4)`` rotation by ``angle_rad`` about the line through ``pivot`` along ``axis``."""
+def axis_angle_transform(axis: np.ndarray, pivot: np.ndarray, angle_rad: np.ndarray | float) -> np.ndarray:
+    """``(..., 4, 4)`` rotation by ``angle_rad`` ``(...)`` about the line through ``pivot`` ``(3,)`` along ``axis``
+    ``(3,)`` (right hand)."""
     R = rotation_about_axis(axis, angle_rad)
     pivot = np.asarray(pivot, dtype=np.float64)
     return make_transform(R, pivot - R @ pivot)

@@ -19,10 +19,10 @@ decide. Camera frame (the camera at the origin), metres, radians. Measured in do
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 from ..geometry.kinematics import joint_state_from_poses
+from ..geometry.transforms import axis_angle_transform
 from ..priors import CategoryPriors
 from ..vocab import JointType
 
@@ -61,14 +61,15 @@ STOP = 0.97
 """A segment runs from the camera to this share of the way to its point (the point's own surface excluded)."""
 
 
-def segments_through_box(cam_from_box, size_m, points, stop: float = STOP) -> np.ndarray:
-    """Which segments from the camera (the origin) to ``stop`` of the way to each point cross each box.
+def segments_through_box(cam_from_box, size_m, points, stop: float = STOP, camera=None) -> np.ndarray:
+    """Which segments from the camera to ``stop`` of the way to each point cross each box.
 
     Args:
-        cam_from_box: ``(B, 4, 4)`` rigid box poses (camera frame).
+        cam_from_box: ``(B, 4, 4)`` rigid box poses (camera frame, or any frame ``camera`` is given in).
         size_m: ``(B, 3)`` full extents (> 0) or ``(3,)`` for every box.
-        points: ``(P, 3)`` points (camera frame).
+        points: ``(P, 3)`` points (same frame).
         stop: the share of the way to each point the segment runs (``(0, 1]``).
+        camera: ``(3,)`` the camera centre in that frame (``None``: the origin).
 
     Returns:
         ``(B, P)`` bool.
@@ -76,7 +77,8 @@ def segments_through_box(cam_from_box, size_m, points, stop: float = STOP) -> np
     T = np.asarray(cam_from_box, np.float64)
     half = np.broadcast_to(0.5 * np.asarray(size_m, np.float64), (len(T), 3))[:, None, :]
     R, t = T[:, :3, :3], T[:, :3, 3]
-    o = -np.einsum("bji,bj->bi", R, t)[:, None, :]  # (B, 1, 3) the camera in each box's frame
+    c = np.zeros(3) if camera is None else np.asarray(camera, np.float64)
+    o = np.einsum("bji,bj->bi", R, c - t)[:, None, :]  # (B, 1, 3) the camera in each box's frame
     p = np.einsum("bji,bpj->bpi", R, np.asarray(points, np.float64)[None] - t[:, None, :])  # (B, P, 3)
     d = stop * (p - o)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -114,6 +116,7 @@ def place_weak_parts(
     turn_cost: float = TURN_COST,
     max_turn_deg: float = MAX_TURN_DEG,
     step_deg: float = STEP_DEG,
+    camera=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Parts the camera barely sees, turned about their revolute joint to where the points say they can be.
 
@@ -126,13 +129,15 @@ def place_weak_parts(
     part turns at most once; sizes are kept; the caller re-reads the joint states from the new poses.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, the camera at the origin, metres).
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres; or any frame ``camera`` is given in).
         size_m: ``(K, 3)`` box extents (metres, > 0).
-        joint_axis, joint_pivot: ``(J, 3)`` the joints' unit axes and pivots (camera frame).
-        points: ``(P, 3)`` the cloud (camera frame, metres).
+        joint_axis, joint_pivot: ``(J, 3)`` the joints' unit axes and pivots (same frame).
+        points: ``(P, 3)`` the cloud (same frame, metres).
         labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (tree, joint types and limits).
         weak_share, strong_share, turn_cost, max_turn_deg, step_deg: as above.
+        camera: ``(3,)`` the camera centre in that frame (``None``: the origin; a cloud scaled about a centre
+            ``c`` by ``s`` has it at ``c (1 - s)``).
 
     Returns:
         ``(cam_from_part, turned_rad)``: a ``(K, 4, 4)`` float64 copy and ``(K,)`` the angle each part was
@@ -140,7 +145,8 @@ def place_weak_parts(
 
     Raises:
         InputError: shapes that do not match the priors, non-finite or non-positive values, shares outside
-            ``[0, 1]``, a negative ``turn_cost``, a step that is not positive.
+            ``[0, 1]``, a negative ``turn_cost``, a step that is not positive, a camera that is not a finite
+            ``(3,)`` position.
     """
     T = np.array(cam_from_part, dtype=np.float64)
     S = np.asarray(size_m, dtype=np.float64)
@@ -158,6 +164,9 @@ def place_weak_parts(
         raise InputError(f"points must have shape (P, 3) and labels (P,) integers, got {pts.shape} and {lab.shape} {lab.dtype}")
     if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(u).all() and np.isfinite(pts).all()):
         raise InputError("cam_from_part, size_m, joint_axis and points must be finite")
+    cam = np.zeros(3) if camera is None else np.asarray(camera, dtype=np.float64)
+    if cam.shape != (3,) or not np.isfinite(cam).all():
+        raise InputError(f"camera must be a finite (3,) position, got {np.shape(camera)}")
     if (S <= 0).any():
         raise InputError(f"size_m must be positive, got {S.tolist()}")
     if not (0.0 <= weak_share <= 1.0 and 0.0 <= strong_share <= 1.0):
@@ -181,10 +190,7 @@ def place_weak_parts(
             if turned[w] != 0.0 or not (count[w] < weak_share * total and count[other] >= strong_share * total):
                 continue
             axis = u[j] / np.linalg.norm(u[j])
-            M = np.repeat(np.eye(4)[None], len(angles), 0)
-            M[:, :3, :3] = Rotation.from_rotvec(angles[:, None] * axis).as_matrix()
-            M[:, :3, 3] = piv[j] - M[:, :3, :3] @ piv[j]
-            cand = M @ T[w]  # (A, 4, 4) the part turned about the joint line
+            cand = axis_angle_transform(axis, piv[j], angles) @ T[w]  # (A, 4, 4) the part turned about the joint line
             Tp = np.broadcast_to(T[jp.parent], cand.shape) if w == jp.child else cand
             Tc = cand if w == jp.child else np.broadcast_to(T[jp.child], cand.shape)
             q = np.asarray(joint_state_from_poses(Tp, Tc, np.broadcast_to(axis, (len(angles), 3)), "revolute"), np.float64)
@@ -197,8 +203,9 @@ def place_weak_parts(
             ok[0] = True  # the voted angle stays a candidate (the caller clamps its state)
             others = pts[on_part & (lab != w)]
             own = pts[lab == w]
-            hidden = segments_through_box(cand, SHRINK * S[w], others).mean(1) if len(others) else np.zeros(len(angles))
-            misfit = np.zeros(len(angles))
+            hidden, misfit = np.zeros(len(angles)), np.zeros(len(angles))
+            if len(others):
+                hidden = segments_through_box(cand, SHRINK * S[w], others, camera=cam).mean(1)
             if len(own):
                 misfit = np.median(box_surface_distance(cand, S[w], own), axis=1) / np.linalg.norm(S[w])
             cost = np.where(ok, hidden + misfit + turn_cost * np.abs(angles), np.inf)
