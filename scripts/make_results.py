@@ -223,7 +223,8 @@ def training_info(card: dict) -> dict:
 def save_reports(src: Path, dest: Path, runs: Path | None) -> None:
     """Slim copies of the reports in ``src`` (no per-sample records), with the training figures of the
     run each was made from (``runs/<name without _pairsN / _no_awareness / _refine / _norefine>/model_card.json``,
-    else the model card inside the shipped model of that name)."""
+    else the model card inside the shipped model of that name). A report that carries its own ``training``
+    (one measured with an earlier model than that run, e.g. the voting side of a baseline comparison) keeps it."""
     import re
 
     from ucope.eval.evaluate import parts_in_view, view_bin, view_success
@@ -246,7 +247,9 @@ def save_reports(src: Path, dest: Path, runs: Path | None) -> None:
         run = re.sub(r"_(t3_.*|pairs\d+|no_awareness|refine|norefine|voting|upright|noupright)$", "", p.stem)
         card = runs / run / "model_card.json" if runs is not None else None
         shipped = Path(__file__).resolve().parent.parent / "src" / "ucope" / "pretrained" / f"{run}.json"
-        if card is not None and card.is_file():
+        if "training" in rep:
+            pass
+        elif card is not None and card.is_file():
             rep["training"] = training_info(json.loads(card.read_text()))
         elif shipped.is_file():  # a shipped model's JSON holds its model card
             rep["training"] = training_info(json.loads(shipped.read_text()).get("info", {}))
@@ -350,12 +353,21 @@ TABLE3_MECHANISMS = (
 )
 
 
+def generator_label(data: dict) -> str:
+    """A report's generator, e.g. ``"2"``, or ``"2, camera revision 2"`` when its category's generator is past its
+    first revision (``data.category_revision``; reports without it: 1)."""
+    rev = data.get("category_revision", 1)
+    return f"{data.get('generator_version', '?')}" + (f", category revision {rev}" if rev != 1 else "")
+
+
 def same_test_set(a: dict, b: dict) -> bool:
-    """Whether two reports were measured on the same test views: the same category, generator, split, seed and
-    count (sample i of a generated data set is the same wherever and into whichever folder it was generated)."""
+    """Whether two reports were measured on the same test views: the same category, generator (and category
+    revision), split, seed and count (sample i of a generated data set is the same wherever and into whichever
+    folder it was generated)."""
     da, db = a.get("data", {}), b.get("data", {})
     keys = ("generator_version", "split", "seed", "num_samples")
-    return all(da.get(k) == db.get(k) for k in keys) and a.get("category") == b.get("category")
+    same_rev = da.get("category_revision", 1) == db.get("category_revision", 1)
+    return all(da.get(k) == db.get(k) for k in keys) and same_rev and a.get("category") == b.get("category")
 
 
 def ablation_row(rep: dict, label: str) -> str:
@@ -392,7 +404,7 @@ def table3_section(R: Path) -> list[str]:
         "## Ablation on eyeglasses (Table 3 shape)",
         "",
         f"Every row: the shipped eyeglasses model on the same {d['num_samples']} test views (generator "
-        f"{d.get('generator_version', '?')}, seed {d.get('seed')}), parts {', '.join(first['part_names'])}; means, with the "
+        f"{generator_label(d)}, seed {d.get('seed')}), parts {', '.join(first['part_names'])}; means, with the "
         "rotation's median in brackets; success: views whose every part is under 10 degrees and 10 % of its box diagonal. "
         "The paper's rows are its Table 3 (ArtImage, GPU).",
         "",
@@ -612,7 +624,7 @@ def main() -> int:
             f"### {cat}",
             "",
             f"Parts: {', '.join(rep['part_names'])}; {rep['data']['num_samples']} test views "
-            f"(generator {rep['data'].get('generator_version', '?')}). "
+            f"(generator {generator_label(rep['data'])}). "
             f"U-COPE trained with {training_line(rep) or 'see its model card'}.",
             "",
             "| method | rotation error (deg) | translation error (m) | 3D IoU (%) | 10deg10cm (%) | time (s) |",
@@ -778,7 +790,7 @@ def main() -> int:
                 "commands.",
                 "",
             ]
-        gens = {c: r["data"].get("generator_version", "?") for c, r in rigid.items()}
+        gens = {c: generator_label(r["data"]) for c, r in rigid.items()}
         out += [
             "Test views: "
             + "; ".join(f"generator {g}: {', '.join(c for c in rigid if gens[c] == g)}" for g in sorted(set(gens.values())))

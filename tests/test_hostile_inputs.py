@@ -312,6 +312,7 @@ def test_bad_meta_and_corrupt_shards_are_named(tmp_path):
         ({"num": -5}, "must be positive"),
         ({"generator_version": "0"}, "generator version 0, this ucope uses"),
         ({"conventions_version": "9"}, "conventions version 9"),
+        ({"category_revision": 7}, "mug generator revision 7, this ucope uses 1"),
     ):
         (root / "meta.json").write_text(json.dumps({**meta, **bad}))
         with pytest.raises(DataError, match=match):
@@ -333,6 +334,19 @@ def test_bad_meta_and_corrupt_shards_are_named(tmp_path):
     np.savez(root / "shard_00000.npz", **broken)
     with pytest.raises(DataError, match="offsets"):
         ucope.data.load_dataset(root)[0]
+
+
+def test_a_data_set_from_an_older_category_generator_is_refused(tmp_path):
+    root = _tiny_set(tmp_path)
+    meta = json.loads((root / "meta.json").read_text())
+    assert meta["category_revision"] == 1
+    ucope.data.check_versions({k: v for k, v in meta.items() if k != "category_revision"}, "m")  # absent: 1
+    # the camera's generator is at revision 2 (the ultra-compacts): a revision-1 camera set is refused by name
+    with pytest.raises(DataError, match="camera generator revision 1, this ucope uses 2"):
+        ucope.data.check_versions({**meta, "category": "camera", "category_revision": 1}, "m")
+    ucope.data.check_versions({**meta, "category": "camera", "category_revision": 2}, "m")
+    # a category of your own is checked by its recorded spec, not by a built-in revision
+    ucope.data.check_versions({**meta, "category": "robot_arm", "spec": {"name": "robot_arm"}, "category_revision": 1}, "m")
 
 
 def test_generate_into_a_folder_of_shards_without_meta_refuses(tmp_path, capsys):

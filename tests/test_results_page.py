@@ -143,6 +143,15 @@ def test_voting_is_compared_with_regression_only_on_the_same_views(tmp_path):
     assert "| mug (10) | regression, *median* | 2.5 |" in text
 
 
+def test_a_category_generator_revision_makes_another_test_set():
+    mr = _make_results_module()
+    old, new = _fake_report(4.0), _fake_report(4.0)
+    new["data"]["category_revision"] = 2
+    assert mr.same_test_set(old, _fake_report(5.0)) and not mr.same_test_set(old, new)
+    assert mr.same_test_set(old, {**new, "data": {**new["data"], "category_revision": 1}})  # absent means 1
+    assert mr.generator_label(old["data"]) == "2" and mr.generator_label(new["data"]) == "2, category revision 2"
+
+
 def test_seen_ratios_divide_back_by_front_over_the_views_that_show_each_part():
     mr = _make_results_module()
 

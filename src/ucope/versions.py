@@ -3,7 +3,9 @@
 Each file ucope writes names its format, and each reader checks it with both versions named in the error:
 
 * :data:`CONVENTIONS_VERSION`: frames, units and per-category canonical frames (docs/conventions.md);
-* :data:`GENERATOR_VERSION`: the procedural generators and the renderer (data sets record it);
+* :data:`GENERATOR_VERSION`: the procedural generators and the renderer (data sets record it); under it each
+  built-in category's generator has a revision of its own (``CategorySpec.revision``, recorded as
+  ``category_revision``: raised when only that category's shapes change, so the others' data sets stay valid);
 * :data:`DATA_FORMAT_VERSION`: the shard layout of a data set (``meta.json`` + ``shard_NNNNN.npz``);
 * :data:`MODEL_FORMAT`, :data:`CHECKPOINT_FORMAT`, :data:`RESULT_FORMAT`, :data:`RESULTS_FORMAT`: the
   JSON format tags of a model, a training checkpoint, a pose result and the results of one frame.

@@ -184,3 +184,25 @@ def test_laptop_lid_above_hinge_at_back():
         if p["opening_deg"] > 95:  # leaning back: the lid's top edge is behind the hinge
             top = v[v[:, 1] > v[:, 1].max() - 0.003]
             assert top[:, 2].mean() < base_front - p["depth"]
+
+
+def test_camera_ultra_compacts_put_a_small_lens_in_the_top_corner():
+    objs = [camera.SPEC.build(np.random.default_rng(s), f"camera/compact/{s}", "compact") for s in range(24)]
+    ultra = [o for o in objs if o.params["ultra_compact"]]
+    assert 6 <= len(ultra) <= 18  # half of the compacts, drawn per instance
+    assert all(o.params["ultra_compact"] in (0, 1) for o in objs)
+    for obj in ultra:
+        p = obj.params
+        assert camera.ULTRA_COMPACT["depth"][0] <= p["depth"] <= camera.ULTRA_COMPACT["depth"][1]
+        assert camera.ULTRA_COMPACT["lens_r"][0] <= p["lens_radius"] <= camera.ULTRA_COMPACT["lens_r"][1]
+        assert p["lens_length"] <= camera.ULTRA_COMPACT["lens_len_max"] + 1e-9
+        assert p["grip_width"] == 0.0 and p["has_dial"] == 0
+        # the lens (the front-most ring) sits in the +x top corner of the body, within 1 cm of both edges
+        v = obj.parts[0].mesh.vertices
+        front = v[v[:, 2] > v[:, 2].max() - 0.002]
+        body_centre = v[:, :2].min(0) + [p["width"] / 2, p["height"] / 2]  # the box also holds the top button
+        cx, cy = 0.5 * (front[:, :2].min(0) + front[:, :2].max(0)) - body_centre
+        np.testing.assert_allclose([cx, cy], [p["lens_x"], p["lens_y"]], atol=0.001)
+        r_mount = 1.15 * p["lens_radius"]
+        assert 0.0 < p["width"] / 2 - (cx + r_mount) <= 0.01
+        assert 0.0 < p["height"] / 2 - (cy + r_mount) <= 0.01

@@ -479,6 +479,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             "split": ds.meta.get("split"),
             "seed": ds.meta.get("seed"),
             "generator_version": ds.meta.get("generator_version"),
+            "category_revision": ds.meta.get("category_revision", 1),
         }
     n = len(ds) if args.num is None else min(len(ds), args.num)
     if n <= 0:

@@ -7,13 +7,14 @@ lazily) gives fixed-size point sets.
 
 from __future__ import annotations
 
-from .dataset import SyntheticDataset, load_dataset
+from .dataset import SyntheticDataset, check_versions, load_dataset
 from .generate import GenerateConfig, generate_dataset, make_sample
 from .stream import GeneratedSamples
 
 __all__ = [
     "SyntheticDataset",
     "load_dataset",
+    "check_versions",
     "GenerateConfig",
     "generate_dataset",
     "make_sample",

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..errors import DataError
 from ..fileio import read_json
+from ..objects.categories import CATEGORY_NAMES, get_category
 from ..render.camera import PinholeCamera
 from ..versions import CONVENTIONS_VERSION, DATA_FORMAT_VERSION, GENERATOR_VERSION
 from .shards import read_shard, shard_name
@@ -16,17 +17,24 @@ __all__ = ["SyntheticDataset", "load_dataset", "check_versions"]
 
 
 def check_versions(meta: dict, where) -> None:
-    """Refuse a data set made by another generator, under other conventions or in another shard format,
-    naming both versions (:class:`DataError`)."""
-    for key, ours in (
+    """Refuse a data set made by another generator, by another revision of a built-in category's generator
+    (``category_revision``, 1 when absent; :attr:`ucope.objects.categories.CategorySpec.revision`), under
+    other conventions or in another shard format, naming both versions (:class:`DataError`). A category of
+    your own is checked by the spec its ``meta.json`` records, not here."""
+    checks = [
         ("format_version", DATA_FORMAT_VERSION),
         ("generator_version", GENERATOR_VERSION),
         ("conventions_version", CONVENTIONS_VERSION),
-    ):
-        theirs = meta.get(key)
+    ]
+    category = meta.get("category")
+    if category in CATEGORY_NAMES and "spec" not in meta:
+        checks.append(("category_revision", get_category(category).revision))
+    for key, ours in checks:
+        theirs = meta.get(key, 1 if key == "category_revision" else None)
         if str(theirs) != str(ours):
+            what = f"{category} generator revision" if key == "category_revision" else key.replace("_", " ")
             raise DataError(
-                f"{where}: the data set has {key.replace('_', ' ')} {theirs}, this ucope uses {ours}; "
+                f"{where}: the data set has {what} {theirs}, this ucope uses {ours}; "
                 "generate it again with this ucope (or use the ucope that made it)"
             )
 

@@ -135,6 +135,7 @@ class GenerateConfig:
                 else {}
             ),
             "generator_version": GENERATOR_VERSION,
+            "category_revision": category_of(self).revision,
             "conventions_version": CONVENTIONS_VERSION,
             "format_version": FORMAT_VERSION,
             **({"spec": self.spec} if self.spec is not None else {}),

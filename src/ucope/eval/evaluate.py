@@ -6,7 +6,7 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
 
     {"format": "ucope-eval/1", "model": ..., "head": "voting" | "regression", "category": ...,
      "part_names": [K], "part_symmetry": [K], "settings": {"num_pairs", "awareness", "refine", "seed"},
-     "data": {"path", "split", "num_samples", "generator_version"},
+     "data": {"path", "split", "num_samples", "generator_version", "category_revision"},
      "parts": summarize_parts(...),          # per part mean / median errors and success fractions
      "joints": summarize_joints(...) | None,
      "segmentation": {"iou": [K], "accuracy"} | None,     # means over samples (K >= 2)

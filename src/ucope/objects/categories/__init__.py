@@ -94,6 +94,10 @@ class CategorySpec:
         description: one line for ``ucope categories``.
         procedural: ``True`` for the built-in generators (they must hold some, not all, families out);
             ``False`` for a category from a spec (:mod:`ucope.objects.spec`), whose held-out files are optional.
+        revision: the revision of this category's generator (>= 1) under
+            :data:`ucope.versions.GENERATOR_VERSION`: raised when ``build`` makes something else for some
+            instance. Data sets record it (``category_revision`` in ``meta.json``, 1 when absent) and
+            readers refuse one made at another revision (:func:`ucope.data.check_versions`).
     """
 
     name: str
@@ -107,11 +111,14 @@ class CategorySpec:
     build: Callable[[np.random.Generator, str, str], ArticulatedObject]
     description: str = ""
     procedural: bool = True
+    revision: int = 1
 
     def __post_init__(self) -> None:
         names = [f.name for f in self.shape_families]
         if len(set(names)) != len(names) or not names:
             raise ValueError(f"{self.name}: shape family names must be unique and non-empty, got {names}")
+        if isinstance(self.revision, bool) or not isinstance(self.revision, int) or self.revision < 1:
+            raise ValueError(f"{self.name}: revision must be an integer >= 1, got {self.revision!r}")
         if self.procedural and (not any(f.held_out for f in self.shape_families) or all(f.held_out for f in self.shape_families)):
             raise ValueError(f"{self.name}: some shape families, not all, must be held out")
 

@@ -25,6 +25,10 @@ mirrorless  0.110-0.135  0.062-0.085  0.032-0.050  0.026-0.034    0.020-0.090   
 compact     0.095-0.115  0.055-0.068  0.025-0.042  0.014-0.022    0.004-0.030    flash window, small grip
 action      0.060-0.075  0.040-0.056  0.020-0.034  0.008-0.012    0.004-0.010    box, no grip (held out)
 =========== ============ ============ ============ ============== ============== =========================
+
+Half of the compacts take the ultra-compact layout (:data:`ULTRA_COMPACT`): depth 0.018-0.026, lens radius
+0.010-0.015 and length at most 0.012, the lens in the top corner away from the grip, a flat front without a
+grip block or mode dial, the flash window in the grip-side top corner, a back screen 65-80 % of the width.
 """
 
 from __future__ import annotations
@@ -80,6 +84,12 @@ FAMILIES = (
     ShapeFamily("compact", "compact camera: small body, short retracting lens, flash window"),
     ShapeFamily("action", "action camera: a small rounded box with a small lens", held_out=True),
 )
+
+# the share of compacts built in the ultra-compact layout (Canon IXUS / ELPH, Sony Cyber-shot W, Nikon Coolpix S
+# class): a slim flat-fronted body, a small lens in the top corner away from the grip (+x), no grip, no mode
+# dial, a flash window in the other top corner, a larger back screen; its ranges replace the compact's
+ULTRA_COMPACT = dict(lens_r=(0.010, 0.015), depth=(0.018, 0.026), lens_len_max=0.012, screen_frac=(0.65, 0.8))
+P_ULTRA_COMPACT = 0.5
 
 # per family: (lo, hi) of body width, height, depth, lens radius and length, grip protrusion, hump height (m)
 RANGES = {
@@ -150,6 +160,14 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
     lens_u = uniform(rng, 0.0, 1.0)  # lens placement within its allowed range
     lens_v = uniform(rng, 0.0, 1.0)
     front_screen = uniform(rng, 0.36, 0.45)  # action: front screen size, fraction of the height
+    # compacts: the ultra-compact layout, drawn last so that every other draw of the stream is unchanged
+    ultra = family == "compact" and bool(rng.random() < P_ULTRA_COMPACT)
+    if ultra:
+        rl = uniform(rng, *ULTRA_COMPACT["lens_r"])
+        D = uniform(rng, *ULTRA_COMPACT["depth"])
+        L = min(L, ULTRA_COMPACT["lens_len_max"])
+        screen_frac = uniform(rng, *ULTRA_COMPACT["screen_frac"])
+        grip_d = 0.0
 
     rl = min(rl, 0.45 * Hb, (W - 0.016) / 2.4)
     L = max(L, grip_d + 0.005)  # the lens is the front-most part
@@ -174,27 +192,33 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
         grip_w = float(np.clip(W / 2 + x_l - rm - 0.002, 0.012, grip_w))
         y_room = max(0.0, Hb / 2 - rm - 0.002)
         y_l = -0.6 * lens_v * y_room if family == "dslr" else (lens_v - 0.5) * 0.6 * y_room
-        gh = grip_h * Hb
-        gsize = (grip_w, gh, D + grip_d)
-        meshes.append(
-            rounded_slab(
-                gsize,
-                0.45 * min(grip_w, D + grip_d),
-                axis="y",
-                center=(-W / 2 + grip_w / 2, -Hb / 2 + gh / 2, grip_d / 2),
-                n_corner=8,
+        if ultra:  # lens in the top corner away from the grip, a flat front (no grip block)
+            x_l = W / 2 - rm - 0.004 - 0.004 * lens_u
+            y_l = Hb / 2 - rm - 0.004 - 0.004 * lens_v
+            grip_w = 0.0
+        else:
+            gh = grip_h * Hb
+            gsize = (grip_w, gh, D + grip_d)
+            meshes.append(
+                rounded_slab(
+                    gsize,
+                    0.45 * min(grip_w, D + grip_d),
+                    axis="y",
+                    center=(-W / 2 + grip_w / 2, -Hb / 2 + gh / 2, grip_d / 2),
+                    n_corner=8,
+                )
             )
-        )
         prof = _lens_profile(rl, L, mount_len, front_len, n_ribs) if L >= 0.015 else _short_lens_profile(rl, L)
         lens = revolve_profile(prof, 48, closed=False)
         meshes.append(transformed(lens, _Y_TO_Z, (x_l, y_l, D / 2)))
-        x_btn = -W / 2 + grip_w / 2
-        meshes.append(cylinder(button_r, 0.003, center=(x_btn, top + 0.0015, D / 2 - 0.012), sections=20))
-        meshes.append(cylinder(button_r * 1.5, 0.0015, center=(x_btn, top + 0.00075, D / 2 - 0.012), sections=20))
+        x_btn = -W / 2 + grip_w / 2 if not ultra else -W / 4
+        z_btn = D / 2 - 0.012 if not ultra else 0.0
+        meshes.append(cylinder(button_r, 0.003, center=(x_btn, top + 0.0015, z_btn), sections=20))
+        meshes.append(cylinder(button_r * 1.5, 0.0015, center=(x_btn, top + 0.00075, z_btn), sections=20))
         # mode dial at the back of the +x top; the viewfinder hump must leave room for it
         x_dial = W / 2 - dial_r - 0.006
         room = 2.0 * (x_dial - dial_r - 0.003 - x_l)
-        has_dial = int(not has_hump or room >= 0.25 * W)
+        has_dial = int(not ultra and (not has_hump or room >= 0.25 * W))
         if has_hump and has_dial:
             hump_w = min(hump_w, room)
         if has_dial:
@@ -213,7 +237,9 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
                     center=(x_l, top + 0.4 * hump_h, -D / 2 - 0.004),
                 )
             )
-        if family == "compact":  # flash window and viewfinder window on the front face
+        if ultra:  # flash window in the top corner on the grip side
+            meshes.append(box((0.014, 0.007, 0.0012), (-W / 2 + 0.012, top - 0.008, D / 2 + 0.0006)))
+        elif family == "compact":  # flash window and viewfinder window on the front face
             meshes.append(
                 boxes(
                     np.array([[W / 2 - 0.016, top - 0.012, D / 2 + 0.0006], [x_l - 0.5 * rl, top - 0.01, D / 2 + 0.0006]]),
@@ -247,6 +273,7 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
         dial_radius=dial_r,
         has_dial=has_dial,
         screen_frac=screen_frac,
+        ultra_compact=int(ultra),
     )
     return rigid_object("camera", instance_id, meshes, "none", params, family)
 
@@ -262,4 +289,5 @@ SPEC = CategorySpec(
     shape_families=FAMILIES,
     build=build,
     description="camera: rounded body, -x grip, lens along +z, top controls (DSLR, mirrorless, compact, action camera)",
+    revision=2,  # 2: half of the compacts in the ultra-compact layout
 )
