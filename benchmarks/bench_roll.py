@@ -2,6 +2,7 @@
 
     python benchmarks/bench_roll.py                                    # laptop, scissors, drawer, camera, mug; 40 views
     python benchmarks/bench_roll.py --models laptop --num 10 --out /tmp/r.json
+    python benchmarks/bench_roll.py --models camera --model-dir runs/candidates   # <category>.json models of a folder
 
 The models were trained on upright cameras (3 degrees of roll). For every model, ``--num`` unseen test views
 of its category (generator defaults, one view per instance, seed ``--seed``) are rolled by each angle of
@@ -59,11 +60,12 @@ def summarize(records: list[dict]) -> dict:
     }
 
 
-def run_model(name: str, num: int, seed: int, rolls, pairs: int) -> dict:
+def run_model(name: str, num: int, seed: int, rolls, pairs: int, model_dir: Path | None = None) -> dict:
+    src = str(model_dir / f"{name}.json") if model_dir else name
     ests = {
-        "no_carry": Estimator.load(name, num_pairs=pairs, upright=False),
-        "default": Estimator.load(name, num_pairs=pairs),
-        "up_given": Estimator.load(name, num_pairs=pairs),
+        "no_carry": Estimator.load(src, num_pairs=pairs, upright=False),
+        "default": Estimator.load(src, num_pairs=pairs),
+        "up_given": Estimator.load(src, num_pairs=pairs),
     }
     cat = ests["default"].category
     gen = GenerateConfig(category=cat, split="test", num=num, seed=seed, views_per_instance=1)
@@ -86,6 +88,7 @@ def main(argv=None) -> None:
     ap.add_argument("--models", nargs="+", default=list(MODELS))
     ap.add_argument("--num", type=int, default=40, help="test views per model")
     ap.add_argument("--seed", type=int, default=11, help="seed of the test views")
+    ap.add_argument("--model-dir", type=Path, default=None, help="folder of <category>.json models (default: the shipped ones)")
     ap.add_argument("--rolls", type=float, nargs="+", default=list(ROLLS_DEG), help="camera roll angles, degrees")
     ap.add_argument("--pairs", type=int, default=20000)
     ap.add_argument("--threads", type=int, default=2)
@@ -93,7 +96,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     torch.set_num_threads(args.threads)
     t0 = time.perf_counter()
-    models = {m: run_model(m, args.num, args.seed, args.rolls, args.pairs) for m in args.models}
+    models = {m: run_model(m, args.num, args.seed, args.rolls, args.pairs, args.model_dir) for m in args.models}
     settings = {"num": args.num, "seed": args.seed, "rolls_deg": args.rolls, "pairs": args.pairs}
     write_results(args.out, "ucope-roll/1", settings, models, t0, args.threads)
 
