@@ -34,7 +34,7 @@
 # and scissors, a longer augmented stage for the dishwasher and the camera, more floor for the laptops, and the drawer's
 # first one, from its generator-1 model to generator-2 views with new priors); the stage before it is kept as
 # runs/CATEGORY_round1, and the calibration and refinement default are measured on the final model.
-# ROUND3_CATS (default: dishwasher laptop) get a third stage after it (round3_recipe; the second kept as
+# ROUND3_CATS (default: dishwasher laptop camera) get a third stage after it (round3_recipe; the second kept as
 # runs/CATEGORY_round2). ROUND4_CATS (default: dishwasher) a fourth, the third's recipe again on data seed 5
 # (round4_recipe; the third kept as runs/CATEGORY_round3).
 set -euo pipefail
@@ -47,7 +47,7 @@ CATS=${CATS:-"laptop mug eyeglasses drawer scissors dishwasher bottle bowl camer
 BASELINE_CATS=${BASELINE_CATS-"laptop drawer camera mug"}  # empty: no baseline
 ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors eyeglasses dishwasher"}  # empty: none
 ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid camera"}  # empty: none
-ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop"}  # a third stage after the second (ROUND2_CATS only); empty: none
+ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop camera"}  # a third stage after the second (ROUND2_CATS only); empty: none
 ROUND4_CATS=${ROUND4_CATS-"dishwasher"}  # a fourth stage after the third (ROUND3_CATS only); empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their validation views (set_denoise_default.py)
@@ -222,12 +222,19 @@ round2_recipe() {  # round2_recipe CATEGORY
 
 # The third stage (2026-12-05, a second session): the dishwasher and the laptop with more floor and more
 # resampled views on data seed 4 (dishwasher 21 min beside one other job; laptop 7.5 min alone on 2 threads).
+# The camera's (2026-12-06): the second stage's recipe again on views of the camera generator's revision 2
+# (half of the compacts ultra-compacts) of data seed 7 (13.5 min on 2 threads alone on the machine).
 round3_recipe() {  # round3_recipe CATEGORY
   case $1 in
     dishwasher) echo "6000 4000 3e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
     laptop) echo "5000 3000 2e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
+    camera) round2_recipe camera ;;
     *) echo "" ;;
   esac
+}
+
+round3_seed() {  # round3_seed CATEGORY: the data seed of the third stage's views
+  case $1 in camera) echo 7 ;; *) echo 4 ;; esac
 }
 
 # The fourth stage (2026-12-06): the dishwasher's third recipe again on fresh views of data seed 5 (26 min on
@@ -264,7 +271,7 @@ later_stages() {  # later_stages CATEGORY: runs/CATEGORY_round1 -> (round 2, 3, 
     later_stage "$c" round4 "${c}_round3" "$c" 5
   elif [[ " $ROUND3_CATS " == *" $c "* ]]; then
     later_stage "$c" round2 "${c}_round1" "${c}_round2" 3
-    later_stage "$c" round3 "${c}_round2" "$c" 4
+    later_stage "$c" round3 "${c}_round2" "$c" "$(round3_seed "$c")"
   else
     later_stage "$c" round2 "${c}_round1" "$c" 3
   fi
