@@ -38,7 +38,7 @@ DIMS = {
     "dishwasher": {  # body x: width (+ worktop lip); body y: height; object z: depth with the door (+ handle)
         "freestanding": {"body.x": (0.595, 0.615), "body.y": (0.815, 0.890), "object.z": (0.570, 0.700)},
         "slim": {"body.x": (0.445, 0.455), "body.y": (0.815, 0.860), "object.z": (0.550, 0.700)},
-        "integrated": {"body.x": (0.446, 0.598), "body.y": (0.815, 0.870), "object.z": (0.550, 0.650)},
+        "integrated": {"body.x": (0.446, 0.598), "body.y": (0.445, 0.870), "object.z": (0.550, 0.650)},  # compacts: 0.445-0.46
         "countertop": {"body.x": (0.540, 0.560), "body.y": (0.430, 0.500), "object.z": (0.480, 0.590)},
     },
     "scissors": {  # object z: overall length (blunt tips up to 6 % shorter)
@@ -237,6 +237,26 @@ def test_dishwasher_door_opens_forward_and_down():
         # horizontal door: thin along y, above the floor
         assert door_y.min() > -obj.size_m[0, 1] / 2 - 1e-6
         assert door_y.max() - door_y.min() < 0.2
+
+
+def test_dishwasher_compact_built_ins_are_low_and_share_the_other_draws():
+    from ucope.objects.categories import dishwasher
+
+    objs = [dishwasher.SPEC.build(np.random.default_rng(s), f"dishwasher/integrated/{s}", "integrated") for s in range(24)]
+    compact = [o for o in objs if o.params["compact_built_in"]]
+    assert 6 <= len(compact) <= 18  # half of the integrated machines, drawn per instance
+    for obj in objs:
+        h, w = obj.size_m[0, 1], obj.size_m[0, 0]
+        if obj.params["compact_built_in"]:
+            assert 0.445 * 0.99 <= h <= 0.460 * 1.01 and 0.594 * 0.99 <= w <= 0.598 * 1.01
+            assert obj.params["racks"] == 2 and 0.020 <= obj.params["kick_height"] <= 0.035
+        else:
+            assert 0.815 * 0.99 <= h <= 0.870 * 1.01
+    # a compact machine is built again from its stream: its other draws are those of the full-height one
+    seed = int(np.flatnonzero([o.params["compact_built_in"] for o in objs])[0])
+    full = dishwasher._build(np.random.default_rng(seed), "x", "integrated", None)
+    for key in ("n_buttons", "rack_rod_radius", "spray_arm_angle_lower", "door_thickness", "wall_thickness"):
+        assert compact[0].params[key] == full.params[key], key
 
 
 def test_drawer_moves_exactly_along_z():

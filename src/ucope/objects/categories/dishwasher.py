@@ -29,10 +29,14 @@ integrated     0.446-0.450, 0.594-0.598 0.815-0.870    0.550-0.575    furniture 
 countertop     0.540-0.560              0.430-0.500    0.480-0.520    on short feet, one rack (held out)
 ============== ======================== ============== ============== ==============================================
 
-Full-size machines have two racks and, half of them, a third cutlery tray at the top.
+Full-size machines have two racks and, half of them, a third cutlery tray at the top. Half of the integrated
+machines are compact built-ins (:data:`COMPACT_BUILT_IN`: 0.594-0.598 wide, 0.445-0.460 high, 0.550-0.575 deep,
+a 20-35 mm base instead of the plinth, two racks), the 45 cm high machines for a niche in a tall unit.
 """
 
 from __future__ import annotations
+
+import copy
 
 import numpy as np
 
@@ -107,8 +111,33 @@ RANGES = {
 }
 
 
+# the share of integrated machines built as compact built-ins (the 45 cm high machines for a 60 cm wide niche in a
+# tall unit, e.g. Bosch / Siemens / Neff compact 45 cm, Miele G 4x "compact"): their ranges replace the integrated
+# ones; two racks, no third tray, a low base instead of a plinth
+COMPACT_BUILT_IN = dict(width=(0.594, 0.598), height=(0.445, 0.460), depth=(0.550, 0.575), kick=(0.020, 0.035))
+P_COMPACT_BUILT_IN = 0.5
+
+
 def build(rng: np.random.Generator, instance_id: str, family: str = "freestanding") -> ArticulatedObject:
-    """A random dishwasher of shape ``family``; see the module docstring for the frame and joint conventions."""
+    """A random dishwasher of shape ``family``; see the module docstring for the frame and joint conventions.
+
+    An integrated machine is a compact built-in (:data:`COMPACT_BUILT_IN`) with chance
+    :data:`P_COMPACT_BUILT_IN`, decided by a draw after all of the machine's own: the instance is then built again
+    from the same stream with the compact sizes (drawn after that decision), so every other instance is the
+    machine it was before this variant existed."""
+    start = copy.deepcopy(rng.bit_generator.state)
+    obj = _build(rng, instance_id, family, None)
+    if family != "integrated" or rng.random() >= P_COMPACT_BUILT_IN:
+        return obj
+    compact = {k: float(rng.uniform(*v)) for k, v in COMPACT_BUILT_IN.items()}
+    replay = np.random.Generator(type(rng.bit_generator)())
+    replay.bit_generator.state = start
+    return _build(replay, instance_id, family, compact)
+
+
+def _build(rng: np.random.Generator, instance_id: str, family: str, compact: dict | None) -> ArticulatedObject:
+    """:func:`build`'s machine; ``compact``: the compact built-in's width, height, depth and base height, which
+    replace the drawn ones (the draws are made all the same)."""
     rg = RANGES[family]
     W = rng.uniform(*rg["width"])
     if family == "integrated":  # a 45 cm or a 60 cm niche
@@ -118,6 +147,8 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     Td = rng.uniform(*rg["door"])
     wt = rng.uniform(0.012, 0.022)  # wall thickness
     kick_h = rng.uniform(*rg["kick"])
+    if compact is not None:
+        W, H, D, kick_h = compact["width"], compact["height"], compact["depth"], compact["kick"]
     kick_recess = rng.uniform(0.01, 0.05)
     panel_h = rng.uniform(0.06, 0.10) if family != "countertop" else rng.uniform(0.05, 0.07)
     panel_proud = rng.uniform(0.002, 0.006)
@@ -134,7 +165,7 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     has_top = int(rng.random() < rg["p_top"])
     top_t = rng.uniform(0.015, 0.025)  # worktop lid thickness
     top_ov = rng.uniform(0.0, 0.012)  # ... overhang over the door
-    third_rack = int(family != "countertop" and rng.random() < 0.5)
+    third_rack = int(family != "countertop" and rng.random() < 0.5 and compact is None)
     n_racks = 1 if family == "countertop" else 2 + third_rack
     integrated = family == "integrated"
     countertop = family == "countertop"
@@ -273,6 +304,7 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
         worktop_thickness=top_t if has_top else 0.0,
         worktop_overhang=top_ov if has_top else 0.0,
         racks=n_racks,
+        compact_built_in=int(compact is not None),
     )
     return build_object(
         "dishwasher",
@@ -297,4 +329,5 @@ SPEC = CategorySpec(
     shape_families=FAMILIES,
     build=build,
     description="dishwasher: cabinet with racks + front door on a bottom revolute hinge (opens down to 90 degrees)",
+    revision=2,  # 2: half of the integrated machines compact built-ins (45 cm high)
 )
