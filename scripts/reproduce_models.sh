@@ -36,7 +36,8 @@
 # runs/CATEGORY_round1, and the calibration and refinement default are measured on the final model.
 # ROUND3_CATS (default: dishwasher laptop camera) get a third stage after it (round3_recipe; the second kept as
 # runs/CATEGORY_round2). ROUND4_CATS (default: dishwasher) a fourth, the third's recipe again on data seed 5
-# (round4_recipe; the third kept as runs/CATEGORY_round3).
+# (round4_recipe; the third kept as runs/CATEGORY_round3), ROUND5_CATS (default: dishwasher) a fifth on data seed 8
+# (round5_recipe; the fourth kept as runs/CATEGORY_round4).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -49,6 +50,7 @@ ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scisso
 ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid camera"}  # empty: none
 ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop camera"}  # a third stage after the second (ROUND2_CATS only); empty: none
 ROUND4_CATS=${ROUND4_CATS-"dishwasher"}  # a fourth stage after the third (ROUND3_CATS only); empty: none
+ROUND5_CATS=${ROUND5_CATS-"dishwasher"}  # a fifth stage after the fourth (ROUND4_CATS only); empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
 DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their validation views (set_denoise_default.py)
 GROW_CATS=${GROW_CATS-"dishwasher drawer laptop_rigid camera"}  # boxes grown to hold their points (docs/results.md)
@@ -247,6 +249,16 @@ round4_recipe() {  # round4_recipe CATEGORY
   esac
 }
 
+# The fifth stage (2026-12-06, an eleventh session): the dishwasher's third recipe on views of the dishwasher
+# generator's revision 2 (half of the integrated machines compact built-ins, 45 cm high) of data seed 8 (12 min on
+# 2 threads).
+round5_recipe() {  # round5_recipe CATEGORY
+  case $1 in
+    dishwasher) round3_recipe dishwasher ;;
+    *) echo "" ;;
+  esac
+}
+
 later_stage() {  # later_stage CATEGORY ROUND FROM_RUN OUT_RUN DATA_SEED: ROUND's recipe from runs/FROM_RUN to runs/OUT_RUN
   local c=$1 round=$2 from=$3 run="$WORK/runs/$4" seed=$5 n steps lr extra resume=""
   if [ -f "$run/model.json" ]; then return 0; fi
@@ -262,10 +274,15 @@ later_stage() {  # later_stage CATEGORY ROUND FROM_RUN OUT_RUN DATA_SEED: ROUND'
     --batch-size 8 --threads 1 --device "$DEVICE" $(category_args "$c") $extra --quiet $resume
 }
 
-later_stages() {  # later_stages CATEGORY: runs/CATEGORY_round1 -> (round 2, 3, 4) -> runs/CATEGORY, calibrated
+later_stages() {  # later_stages CATEGORY: runs/CATEGORY_round1 -> (round 2, 3, 4, 5) -> runs/CATEGORY, calibrated
   local c=$1 run="$WORK/runs/$1"
   if [ -f "$run/model.json" ] && grep -q '"calibration"' "$run/model.json"; then return 0; fi
-  if [[ " $ROUND4_CATS " == *" $c "* && " $ROUND3_CATS " == *" $c "* ]]; then
+  if [[ " $ROUND5_CATS " == *" $c "* && " $ROUND4_CATS " == *" $c "* && " $ROUND3_CATS " == *" $c "* ]]; then
+    later_stage "$c" round2 "${c}_round1" "${c}_round2" 3
+    later_stage "$c" round3 "${c}_round2" "${c}_round3" 4
+    later_stage "$c" round4 "${c}_round3" "${c}_round4" 5
+    later_stage "$c" round5 "${c}_round4" "$c" 8
+  elif [[ " $ROUND4_CATS " == *" $c "* && " $ROUND3_CATS " == *" $c "* ]]; then
     later_stage "$c" round2 "${c}_round1" "${c}_round2" 3
     later_stage "$c" round3 "${c}_round2" "${c}_round3" 4
     later_stage "$c" round4 "${c}_round3" "$c" 5

@@ -508,14 +508,16 @@ def test_restarts_are_checked_taken_from_the_model_and_reach_the_estimator(tiny_
 
 
 def test_the_shipped_dishwasher_measures_a_cabinet_shorter_than_any_it_was_trained_on():
-    """OOD view 80 (``ucope generate --category dishwasher --split ood --num 100``, seed 0): a countertop
-    dishwasher of a held-out family, wider than tall, seen from its side (yaw -87 degrees). Voted, its body's
-    box is nearly twice as tall as the body and its centre sinks into the floor; with ``fit_extents`` (the
-    shipped default) the height comes from the body's points (the camera faces the top and a side: the
-    height is seen whole) and the view succeeds."""
+    """OOD view 7 (``ucope generate --category dishwasher --split ood --num 100``, seed 0): a countertop
+    dishwasher of a held-out family, wider than tall, seen from behind and a side (yaw -143 degrees). Voted, its
+    body's box is 1.16x as tall as the body and the door, placed from it, sits 19 % of its diagonal off; with
+    ``fit_extents`` (the shipped default) the height comes from the body's points (the camera faces the top and
+    a side: the height is seen whole) and every part is within 10 %. (The model before the compact built-ins of
+    the dishwasher generator's revision 2 voted view 80's body nearly twice as tall as it is; the shipped one
+    votes it 1.5x and places both parts within 4 % of their diagonals.)"""
     from ucope.eval.evaluate import sample_errors
 
-    s = make_sample(GenerateConfig(category="dishwasher", split="ood", num=100, seed=0), 80)
+    s = make_sample(GenerateConfig(category="dishwasher", split="ood", num=100, seed=0), 7)
     est = Estimator.load("dishwasher")
     assert est.fit_extents and est.seen_extent is not None
     diag = np.linalg.norm(s["size_m"], axis=1)
@@ -524,8 +526,8 @@ def test_the_shipped_dishwasher_measures_a_cabinet_shorter_than_any_it_was_train
         res = e.predict(s["points"], s["normals"])
         ratio[name] = res.parts[0].size_m[1] / s["size_m"][0][1]
         trans[name] = [p["translation_m"] / d for p, d in zip(sample_errors(res, s)["parts"], diag, strict=True)]
-    assert ratio["voted"] > 1.6 and max(trans["voted"]) > 0.1
-    assert abs(ratio["fit"] - 1.0) < 0.1 and max(trans["fit"]) < 0.1
+    assert ratio["voted"] > 1.1 and max(trans["voted"]) > 0.15
+    assert abs(ratio["fit"] - 1.0) < 0.05 and max(trans["fit"]) < 0.1
 
 
 def test_the_shipped_eyeglasses_take_a_frame_seen_from_behind_to_its_depth():
