@@ -354,8 +354,8 @@ TABLE3_MECHANISMS = (
 
 
 def generator_label(data: dict) -> str:
-    """A report's generator, e.g. ``"2"``, or ``"2, camera revision 2"`` when its category's generator is past its
-    first revision (``data.category_revision``; reports without it: 1)."""
+    """A report's generator, e.g. ``"2"``, or ``"2, category revision 2"`` when its category's generator is past
+    its first revision (``data.category_revision``; reports without it: 1)."""
     rev = data.get("category_revision", 1)
     return f"{data.get('generator_version', '?')}" + (f", category revision {rev}" if rev != 1 else "")
 
