@@ -247,12 +247,11 @@ def save_reports(src: Path, dest: Path, runs: Path | None) -> None:
         run = re.sub(r"_(t3_.*|pairs\d+|no_awareness|refine|norefine|voting|upright|noupright)$", "", p.stem)
         card = runs / run / "model_card.json" if runs is not None else None
         shipped = Path(__file__).resolve().parent.parent / "src" / "ucope" / "pretrained" / f"{run}.json"
-        if "training" in rep:
-            pass
-        elif card is not None and card.is_file():
-            rep["training"] = training_info(json.loads(card.read_text()))
-        elif shipped.is_file():  # a shipped model's JSON holds its model card
-            rep["training"] = training_info(json.loads(shipped.read_text()).get("info", {}))
+        if "training" not in rep:
+            if card is not None and card.is_file():
+                rep["training"] = training_info(json.loads(card.read_text()))
+            elif shipped.is_file():  # a shipped model's JSON holds its model card
+                rep["training"] = training_info(json.loads(shipped.read_text()).get("info", {}))
         tmp = dest / f".{p.name}.tmp"
         tmp.write_text(json.dumps(rep, indent=1, sort_keys=True) + "\n")
         tmp.replace(dest / p.name)

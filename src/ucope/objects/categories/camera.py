@@ -187,16 +187,15 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "dslr") -> A
         meshes.append(cylinder(button_r, 0.003, center=(x_btn, top + 0.0012, 0.0), sections=16))
         has_dial = 0
     else:
-        x_hi = W / 2 - rm - 0.002
-        x_l = float(np.clip((0.12 * lens_u) * W, rm + 0.014 - W / 2, x_hi))
-        grip_w = float(np.clip(W / 2 + x_l - rm - 0.002, 0.012, grip_w))
-        y_room = max(0.0, Hb / 2 - rm - 0.002)
-        y_l = -0.6 * lens_v * y_room if family == "dslr" else (lens_v - 0.5) * 0.6 * y_room
         if ultra:  # lens in the top corner away from the grip, a flat front (no grip block)
             x_l = W / 2 - rm - 0.004 - 0.004 * lens_u
             y_l = Hb / 2 - rm - 0.004 - 0.004 * lens_v
             grip_w = 0.0
         else:
+            x_l = float(np.clip((0.12 * lens_u) * W, rm + 0.014 - W / 2, W / 2 - rm - 0.002))
+            grip_w = float(np.clip(W / 2 + x_l - rm - 0.002, 0.012, grip_w))
+            y_room = max(0.0, Hb / 2 - rm - 0.002)
+            y_l = -0.6 * lens_v * y_room if family == "dslr" else (lens_v - 0.5) * 0.6 * y_room
             gh = grip_h * Hb
             gsize = (grip_w, gh, D + grip_d)
             meshes.append(

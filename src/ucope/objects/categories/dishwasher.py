@@ -125,9 +125,11 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     :data:`P_COMPACT_BUILT_IN`, decided by a draw after all of the machine's own: the instance is then built again
     from the same stream with the compact sizes (drawn after that decision), so every other instance is the
     machine it was before this variant existed."""
+    if family != "integrated":
+        return _build(rng, instance_id, family, None)
     start = copy.deepcopy(rng.bit_generator.state)
     obj = _build(rng, instance_id, family, None)
-    if family != "integrated" or rng.random() >= P_COMPACT_BUILT_IN:
+    if rng.random() >= P_COMPACT_BUILT_IN:
         return obj
     compact = {k: float(rng.uniform(*v)) for k, v in COMPACT_BUILT_IN.items()}
     replay = np.random.Generator(type(rng.bit_generator)(0))  # its state is replaced by the saved one
