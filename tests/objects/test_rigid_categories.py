@@ -206,3 +206,12 @@ def test_camera_ultra_compacts_put_a_small_lens_in_the_top_corner():
         r_mount = 1.15 * p["lens_radius"]
         assert 0.0 < p["width"] / 2 - (cx + r_mount) <= 0.01
         assert 0.0 < p["height"] / 2 - (cy + r_mount) <= 0.01
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "2"])
+def test_a_category_revision_must_be_an_integer_from_one(bad):
+    import dataclasses
+
+    with pytest.raises(ValueError, match="revision must be an integer >= 1"):
+        dataclasses.replace(camera.SPEC, revision=bad)
+    assert dataclasses.replace(camera.SPEC, revision=3).revision == 3
