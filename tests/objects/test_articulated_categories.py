@@ -259,6 +259,34 @@ def test_dishwasher_compact_built_ins_are_low_and_share_the_other_draws():
         assert compact[0].params[key] == full.params[key], key
 
 
+def test_build_with_variant_replays_the_stream_and_leaves_other_instances_alone():
+    from ucope.objects.categories.helpers import build_with_variant
+
+    def build(rng, variant):  # records its draws; a variant replaces the second one
+        draws = rng.random(3)
+        if variant is not None:
+            draws[1] = variant["v"]
+        return draws
+
+    def run(seed, p):
+        rng = np.random.default_rng(seed)
+        return build_with_variant(rng, build, p, lambda r: {"v": 10.0 + r.random()}), rng.random()
+
+    plain = np.random.default_rng(3)
+    first = plain.random(3)
+    decision = plain.random()
+    never, after_never = run(3, 0.0)
+    np.testing.assert_array_equal(never, first)  # the instance as it was before the variant existed
+    assert after_never == plain.random()  # the stream goes on after the decision
+    always, after_always = run(3, 1.0)
+    assert always[0] == first[0] and always[2] == first[2]  # built again from the same start
+    variant = np.random.default_rng(3)
+    variant.random(4)
+    assert always[1] == 10.0 + variant.random()  # the variant's own draw, after the decision
+    assert after_always == variant.random()  # the stream goes on after the variant's draws
+    assert decision < 1.0
+
+
 def test_drawer_moves_exactly_along_z():
     for obj in _instances("drawer"):
         lim = obj.limits

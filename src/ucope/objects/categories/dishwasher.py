@@ -36,13 +36,12 @@ a 20-35 mm base instead of the plinth, two racks), the 45 cm high machines for a
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from ..articulation import ArticulatedObject, build_object, make_part
 from ..shapes import boxes, combine, disc, extrude, open_box, rounded_rect, sweep_planar
 from . import CategorySpec, ShapeFamily
+from .helpers import build_with_variant
 
 __all__ = ["SPEC", "build"]
 
@@ -127,14 +126,12 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     machine it was before this variant existed."""
     if family != "integrated":
         return _build(rng, instance_id, family, None)
-    start = copy.deepcopy(rng.bit_generator.state)
-    obj = _build(rng, instance_id, family, None)
-    if rng.random() >= P_COMPACT_BUILT_IN:
-        return obj
-    compact = {k: float(rng.uniform(*v)) for k, v in COMPACT_BUILT_IN.items()}
-    replay = np.random.Generator(type(rng.bit_generator)(0))  # its state is replaced by the saved one
-    replay.bit_generator.state = start
-    return _build(replay, instance_id, family, compact)
+    return build_with_variant(
+        rng,
+        lambda r, compact: _build(r, instance_id, family, compact),
+        P_COMPACT_BUILT_IN,
+        lambda r: {k: float(r.uniform(*v)) for k, v in COMPACT_BUILT_IN.items()},
+    )
 
 
 def _build(rng: np.random.Generator, instance_id: str, family: str, compact: dict | None) -> ArticulatedObject:
