@@ -287,6 +287,36 @@ def test_build_with_variant_replays_the_stream_and_leaves_other_instances_alone(
     assert decision < 1.0
 
 
+def test_drawer_nightstands_and_dressers_on_legs_share_the_other_draws():
+    from ucope.objects.categories import drawer
+
+    objs = [drawer.SPEC.build(np.random.default_rng(s), f"drawer/{f}/{s}", f) for f in drawer.LEG_FAMILIES for s in range(24)]
+    legged = [o for o in objs if o.params["on_legs"]]
+    assert 8 <= len(legged) <= 28  # 35 % of 48, drawn per instance
+    for obj in objs:
+        p, cab = obj.params, obj.parts[0].mesh
+        if not p["on_legs"]:
+            assert p["leg_height"] == 0.0 and p["plinth_height"] > 0.0
+            continue
+        lo, hi = drawer.LEGS["leg_height"]
+        assert p["plinth_height"] == 0.0 and min(lo, drawer.LEG_MAX_FRAC * p["height"]) - 1e-9 <= p["leg_height"]
+        assert p["leg_height"] <= min(hi, drawer.LEG_MAX_FRAC * p["height"]) + 1e-9
+        # between the floor and the carcass only the four legs, near the corners (x centred; the carcass back is
+        # the mesh's back: nothing reaches behind it)
+        floor = cab.bounds[0, 1]
+        section = cab.section(plane_origin=[0.0, floor + 0.5 * p["leg_height"], 0.0], plane_normal=[0.0, 1.0, 0.0])
+        assert section is not None
+        x = section.vertices[:, 0]
+        z = section.vertices[:, 2] - cab.bounds[0, 2] - p["depth"] / 2  # 0 at the carcass's centre
+        assert np.all(np.abs(x) > p["width"] / 2 - 0.1) and np.all(np.abs(z) > p["depth"] / 2 - 0.1)
+    # a cabinet on legs is built again from its stream: its other draws are those of the one on a plinth
+    i = int(np.flatnonzero([o.params["on_legs"] for o in objs])[0])
+    fam, seed = objs[i].shape_family, int(objs[i].instance_id.rsplit("/", 1)[1])
+    plinth = drawer._build(np.random.default_rng(seed), "x", fam, None)
+    for key in ("width", "height", "depth", "handle_type", "front_style", "graduation", "wall_thickness"):
+        assert objs[i].params[key] == plinth.params[key], key
+
+
 def test_drawer_moves_exactly_along_z():
     for obj in _instances("drawer"):
         lim = obj.limits

@@ -24,8 +24,8 @@ Shape families (width W, height H, depth D of the carcass; metres):
 family      W            H            D            look
 =========== ============ ============ ============ =====================================================
 tabletop    0.25-0.42    0.20-0.38    0.25-0.40    desktop drawer unit: thin walls, no plinth, knobs / slots / lips
-nightstand  0.38-0.60    0.45-0.80    0.35-0.50    bedside chest: plinth, top board, any handle
-dresser     0.70-1.80    0.70-1.05    0.40-0.55    chest of drawers: plinth, overhanging top, bars / knobs / lips
+nightstand  0.38-0.60    0.45-0.80    0.35-0.50    bedside chest: plinth or (35 %) legs, top board, any handle
+dresser     0.70-1.80    0.70-1.05    0.40-0.55    chest of drawers: plinth or (35 %) legs, overhanging top, bars / knobs / lips
 filing      0.38-0.50    0.95-1.35    0.55-0.70    filing cabinet: full-overlay fronts, cup pulls or slots
 legged      0.80-2.00    0.60-0.95    0.40-0.50    sideboard on four tapered legs (15-30 cm), bars / knobs (held out)
 =========== ============ ============ ============ =====================================================
@@ -39,6 +39,7 @@ import trimesh
 from ..articulation import ArticulatedObject, build_object, make_part
 from ..shapes import boxes, combine, disc, extrude, open_box, rounded_rect, sweep_planar
 from . import CategorySpec, ShapeFamily
+from .helpers import build_with_variant
 
 __all__ = ["SPEC", "build"]
 
@@ -157,8 +158,36 @@ def _front_with_slot(pw: float, ph: float, yc: float, z_back: float, tf: float, 
     return [boxes(np.array(c), np.array(e))]
 
 
+# Nightstands and dressers on legs (revision 2): mid-century bedside chests and chests of drawers (IKEA Tarva /
+# Hemnes-style legged chests, West Elm Mid-Century, Habitat) stand on four 10-22 cm legs in place of the plinth;
+# the total height stays the family's, so the carcass is lower. The held-out sideboard family is longer and lower
+# (0.8-2 m wide, 15-30 cm legs).
+LEGS = dict(leg_height=(0.10, 0.22))
+LEG_MAX_FRAC = 0.3  # at most this fraction of the cabinet's height, so a low nightstand keeps usable drawers
+P_LEGS = 0.35
+LEG_FAMILIES = ("nightstand", "dresser")
+
+
 def build(rng: np.random.Generator, instance_id: str, family: str = "nightstand") -> ArticulatedObject:
-    """A random three-drawer cabinet of shape ``family``; see the module docstring for the frame and joint conventions."""
+    """A random three-drawer cabinet of shape ``family``; see the module docstring for the frame and joint conventions.
+
+    A nightstand or a dresser stands on four legs (:data:`LEGS`, at most :data:`LEG_MAX_FRAC` of its height)
+    with chance :data:`P_LEGS`, decided by a draw after all of the cabinet's own
+    (:func:`~ucope.objects.categories.helpers.build_with_variant`): every other instance is the cabinet it was
+    before this variant existed."""
+    if family not in LEG_FAMILIES:
+        return _build(rng, instance_id, family, None)
+    return build_with_variant(
+        rng,
+        lambda r, legs: _build(r, instance_id, family, legs),
+        P_LEGS,
+        lambda r: {k: float(r.uniform(*v)) for k, v in LEGS.items()},
+    )
+
+
+def _build(rng: np.random.Generator, instance_id: str, family: str, legs: dict | None) -> ArticulatedObject:
+    """:func:`build`'s cabinet; ``legs``: the leg height of a nightstand or dresser on legs, which replaces the
+    drawn plinth (the draws are made all the same)."""
     rg = RANGES[family]
     W = rng.uniform(*rg["width"])
     H = rng.uniform(*rg["height"])
@@ -186,6 +215,8 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "nightstand"
     leg_in = rng.uniform(0.03, 0.07)  # legged: leg inset from the carcass corners
     leg_r = rng.uniform(0.012, 0.02)
     legged = family == "legged"
+    if legs is not None:
+        plinth_h, legged = min(legs["leg_height"], LEG_MAX_FRAC * H), True
     has_top = top_t > 0.0
     if not has_top:
         top_t = top_ov = 0.0
@@ -297,6 +328,7 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "nightstand"
         wall_thickness=wt,
         plinth_height=plinth_h if not legged else 0.0,
         leg_height=plinth_h if legged else 0.0,
+        on_legs=int(legs is not None),
         plinth_inset=plinth_in,
         top_thickness=top_t,
         top_overhang=top_ov,
@@ -331,6 +363,7 @@ SPEC = CategorySpec(
     elevation_range_deg=(10.0, 55.0),
     shape_families=FAMILIES,
     build=build,
+    revision=2,  # 2: 35 % of the nightstands and dressers on legs (10-22 cm)
     description=(
         "drawer: cabinet with three drawers on prismatic slides " "(tabletop units to dressers, filing cabinets, sideboards)"
     ),
