@@ -466,15 +466,15 @@ def joint_cells(rep: dict, stat: str) -> str:
 
 def voting_vs_regression_section(R: Path) -> list[str]:
     """U-COPE's voting against the direct-regression baseline, per category, on the same test views: the
-    voting report is ``<c>_voting`` (measured beside the baseline) or else ``<c>`` when it is on the
-    baseline's test set."""
+    voting report is whichever of ``<c>_voting`` (measured beside the baseline) and ``<c>`` is on the
+    baseline's test set (``<c>_voting`` first)."""
     rows, cmds, notes = [], [], []
     for c in VERSUS:
         base = load(R, f"{c}_regression")
         if base is None:
             continue
-        vote = load(R, f"{c}_voting") or load(R, c)
-        if vote is None or not same_test_set(vote, base):
+        vote = next((r for r in (load(R, f"{c}_voting"), load(R, c)) if r is not None and same_test_set(r, base)), None)
+        if vote is None:
             notes.append(f"{c}: no voting report on the baseline's test views")
             continue
         n = vote["data"]["num_samples"]
