@@ -270,7 +270,7 @@ def test_build_with_variant_replays_the_stream_and_leaves_other_instances_alone(
 
     def run(seed, p):
         rng = np.random.default_rng(seed)
-        return build_with_variant(rng, build, p, lambda r: {"v": 10.0 + r.random()}), rng.random()
+        return build_with_variant(rng, build, p, {"v": (10.0, 11.0)}), rng.random()
 
     plain = np.random.default_rng(3)
     first = plain.random(3)

@@ -127,10 +127,7 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "freestandin
     if family != "integrated":
         return _build(rng, instance_id, family, None)
     return build_with_variant(
-        rng,
-        lambda r, compact: _build(r, instance_id, family, compact),
-        P_COMPACT_BUILT_IN,
-        lambda r: {k: float(r.uniform(*v)) for k, v in COMPACT_BUILT_IN.items()},
+        rng, lambda r, compact: _build(r, instance_id, family, compact), P_COMPACT_BUILT_IN, COMPACT_BUILT_IN
     )
 
 

@@ -177,12 +177,7 @@ def build(rng: np.random.Generator, instance_id: str, family: str = "nightstand"
     before this variant existed."""
     if family not in LEG_FAMILIES:
         return _build(rng, instance_id, family, None)
-    return build_with_variant(
-        rng,
-        lambda r, legs: _build(r, instance_id, family, legs),
-        P_LEGS,
-        lambda r: {k: float(r.uniform(*v)) for k, v in LEGS.items()},
-    )
+    return build_with_variant(rng, lambda r, legs: _build(r, instance_id, family, legs), P_LEGS, LEGS)
 
 
 def _build(rng: np.random.Generator, instance_id: str, family: str, legs: dict | None) -> ArticulatedObject:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import trimesh
@@ -33,28 +33,29 @@ def build_with_variant(
     rng: np.random.Generator,
     build: Callable[[np.random.Generator, dict | None], ArticulatedObject],
     p: float,
-    draw_variant: Callable[[np.random.Generator], dict],
+    ranges: Mapping[str, tuple[float, float]],
 ) -> ArticulatedObject:
     """An instance that takes a variant with chance ``p``, decided without changing any other instance.
 
     ``build(rng, None)`` builds the instance as it was before the variant existed; one more draw from ``rng``
-    then decides. With chance ``p`` the variant's values are drawn (``draw_variant(rng)``) and the instance is
-    built again, ``build(replay, variant)``, from a copy of ``rng``'s state before the first build: ``build``
-    must make the same draws either way and only use the variant's values in place of some of them. So an
-    instance that does not take the variant is byte for byte the one built before, one that takes it shares
-    all of its other draws, and ``rng`` ends after the decision (and the variant's draws) either way.
+    then decides. With chance ``p`` the variant's values are drawn, each uniformly in its ``(lo, hi)`` of
+    ``ranges`` in their order, and the instance is built again, ``build(replay, variant)``, from a copy of
+    ``rng``'s state before the first build: ``build`` must make the same draws either way and only use the
+    variant's values in place of some of them. So an instance that does not take the variant is byte for byte
+    the one built before, one that takes it shares all of its other draws, and ``rng`` ends after the decision
+    (and the variant's draws) either way.
 
     Args:
         rng: the instance's stream.
-        build: ``build(rng, variant)`` -> the instance; ``variant`` is ``None`` or ``draw_variant``'s dict.
+        build: ``build(rng, variant)`` -> the instance; ``variant`` is ``None`` or ``{name: value}`` of ``ranges``.
         p: the chance of the variant, in ``[0, 1]``.
-        draw_variant: draws the variant's values from ``rng``.
+        ranges: ``{name: (lo, hi)}`` of the variant's values.
     """
     start = copy.deepcopy(rng.bit_generator.state)
     obj = build(rng, None)
     if rng.random() >= p:
         return obj
-    variant = draw_variant(rng)
+    variant = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in ranges.items()}
     replay = np.random.Generator(type(rng.bit_generator)(0))  # its state is replaced by the saved one
     replay.bit_generator.state = start
     return build(replay, variant)
