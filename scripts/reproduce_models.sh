@@ -34,7 +34,7 @@
 # and scissors, a longer augmented stage for the dishwasher and the camera, more floor for the laptops, and the drawer's
 # first one, from its generator-1 model to generator-2 views with new priors); the stage before it is kept as
 # runs/CATEGORY_round1, and the calibration and refinement default are measured on the final model.
-# ROUND3_CATS (default: dishwasher laptop camera) get a third stage after it (round3_recipe; the second kept as
+# ROUND3_CATS (default: dishwasher laptop camera drawer) get a third stage after it (round3_recipe; the second kept as
 # runs/CATEGORY_round2). ROUND4_CATS (default: dishwasher) a fourth, the third's recipe again on data seed 5
 # (round4_recipe; the third kept as runs/CATEGORY_round3), ROUND5_CATS (default: dishwasher) a fifth on data seed 8
 # (round5_recipe; the fourth kept as runs/CATEGORY_round4).
@@ -48,7 +48,7 @@ CATS=${CATS:-"laptop mug eyeglasses drawer scissors dishwasher bottle bowl camer
 BASELINE_CATS=${BASELINE_CATS-"laptop drawer camera mug"}  # empty: no baseline
 ROBUST_CATS=${ROBUST_CATS-"mug camera laptop bowl bottle can laptop_rigid scissors eyeglasses dishwasher"}  # empty: none
 ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_rigid camera"}  # empty: none
-ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop camera"}  # a third stage after the second (ROUND2_CATS only); empty: none
+ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop camera drawer"}  # a third stage after the second (ROUND2_CATS only); empty: none
 ROUND4_CATS=${ROUND4_CATS-"dishwasher"}  # a fourth stage after the third (ROUND3_CATS only); empty: none
 ROUND5_CATS=${ROUND5_CATS-"dishwasher"}  # a fifth stage after the fourth (ROUND4_CATS only); empty: none
 PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
@@ -226,17 +226,20 @@ round2_recipe() {  # round2_recipe CATEGORY
 # resampled views on data seed 4 (dishwasher 21 min beside one other job; laptop 7.5 min alone on 2 threads).
 # The camera's (2026-12-06): the second stage's recipe again on views of the camera generator's revision 2
 # (half of the compacts ultra-compacts) of data seed 7 (13.5 min on 2 threads alone on the machine).
+# The drawer's (2026-12-06, a twelfth session): 4,000 steps with new priors on views of the drawer generator's
+# revision 2 (35 % of the nightstands and dressers on legs) of data seed 9 (28 min on 1 thread beside evaluations).
 round3_recipe() {  # round3_recipe CATEGORY
   case $1 in
     dishwasher) echo "6000 4000 3e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
     laptop) echo "5000 3000 2e-4 --augment 0.65 --augment-set p_floor=0.6 floor_range=0.1,1.0 p_resample=0.45" ;;
     camera) round2_recipe camera ;;
+    drawer) echo "6000 4000 3e-4 --augment 0.65 --new-priors" ;;
     *) echo "" ;;
   esac
 }
 
 round3_seed() {  # round3_seed CATEGORY: the data seed of the third stage's views
-  case $1 in camera) echo 7 ;; *) echo 4 ;; esac
+  case $1 in camera) echo 7 ;; drawer) echo 9 ;; *) echo 4 ;; esac
 }
 
 # The fourth stage (2026-12-06): the dishwasher's third recipe again on fresh views of data seed 5 (26 min on

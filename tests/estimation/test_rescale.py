@@ -15,9 +15,9 @@ from ucope.priors import cloud_radius
 @pytest.fixture(scope="module")
 def drawer():
     """A drawer test view (prismatic joints: their states must follow the scale) and the shipped model
-    (one estimate per cloud: the scale search is tested in test_scale_search.py)."""
+    (one estimate per cloud: the scale search is tested in test_scale_search.py, the restarts in test_restarts.py)."""
     s = make_sample(GenerateConfig(category="drawer", split="test", num=1, views_per_instance=1, seed=3), 0)
-    return s, Estimator.load("drawer", num_pairs=2000, refine=False, scale_search=False)
+    return s, Estimator.load("drawer", num_pairs=2000, refine=False, scale_search=False, restarts=0)
 
 
 def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):
