@@ -284,7 +284,9 @@ def test_build_with_variant_replays_the_stream_and_leaves_other_instances_alone(
     variant.random(4)
     assert always[1] == 10.0 + variant.random()  # the variant's own draw, after the decision
     assert after_always == variant.random()  # the stream goes on after the variant's draws
-    assert decision < 1.0
+    # the decision draw against p: the variant when the draw falls below p
+    np.testing.assert_array_equal(run(3, decision)[0], first)
+    assert run(3, float(np.nextafter(decision, 1.0)))[0][1] == always[1]
 
 
 def test_drawer_nightstands_and_dressers_on_legs_share_the_other_draws():
