@@ -21,18 +21,19 @@ def check_versions(meta: dict, where) -> None:
     (``category_revision``, 1 when absent; :attr:`ucope.objects.categories.CategorySpec.revision`), under
     other conventions or in another shard format, naming both versions (:class:`DataError`). A category of
     your own is checked by the spec its ``meta.json`` records, not here."""
-    checks = [
-        ("format_version", DATA_FORMAT_VERSION),
-        ("generator_version", GENERATOR_VERSION),
-        ("conventions_version", CONVENTIONS_VERSION),
+    checks = [  # (what, theirs, ours)
+        (key.replace("_", " "), meta.get(key), ours)
+        for key, ours in (
+            ("format_version", DATA_FORMAT_VERSION),
+            ("generator_version", GENERATOR_VERSION),
+            ("conventions_version", CONVENTIONS_VERSION),
+        )
     ]
     category = meta.get("category")
     if category in CATEGORY_NAMES and "spec" not in meta:
-        checks.append(("category_revision", get_category(category).revision))
-    for key, ours in checks:
-        theirs = meta.get(key, 1 if key == "category_revision" else None)
+        checks.append((f"{category} generator revision", meta.get("category_revision", 1), get_category(category).revision))
+    for what, theirs, ours in checks:
         if str(theirs) != str(ours):
-            what = f"{category} generator revision" if key == "category_revision" else key.replace("_", " ")
             raise DataError(
                 f"{where}: the data set has {what} {theirs}, this ucope uses {ours}; "
                 "generate it again with this ucope (or use the ucope that made it)"
