@@ -422,6 +422,123 @@ def test_placing_names_bad_input():
     assert JointPrior.__dataclass_fields__["child_in_parent_spread"].default is None
 
 
+def _drawer_front_scene(rng, pulled=0.12, voted_offset=0.5):
+    """A cabinet and a drawer pulled out by ``pulled`` (both turned by one random rotation); the drawer's front
+    panel sampled (the face at +z of its box, as a camera in front sees it), and the voted drawer box moved
+    ``voted_offset`` further out along the slide, the panel now inside it."""
+    R = rotation_about_axis(rng.normal(size=3), rng.uniform(0, np.pi))
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[:, :3, :3] = R
+    T[0, :3, 3] = rng.normal(size=3) + [0, 0, 3]
+    S = np.array([[0.6, 0.8, 0.5], [0.55, 0.2, 0.45]])
+    true_local = np.array([0.0, 0.2, 0.025 + pulled])  # the drawer's centre in the cabinet's frame
+    T[1, :3, 3] = T[0, :3, 3] + R @ true_local
+    panel = np.c_[rng.uniform(-0.27, 0.27, 300), rng.uniform(-0.1, 0.1, 300), np.full(300, 0.225)]
+    pts = T[1, :3, 3] + panel @ R.T
+    voted = T.copy()
+    voted[1, :3, 3] += voted_offset * (R @ [0.0, 0.0, 1.0])
+    return T, voted, S, pts
+
+
+def test_a_drawer_voted_out_in_front_of_its_panel_slides_back_to_it():
+    """The voted box stands 0.5 m out, its back at the front panel: the drawer slides back along the cabinet's z
+    until its front face meets the panel's points (their 98th percentile: the panel itself here); rotation and
+    size stay, the cabinet stays, and the move is reported along the axis."""
+    from ucope.voting import slide_to_fronts
+
+    pri = _cabinet_priors()
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        T, voted, S, pts = _drawer_front_scene(rng)
+        lab = np.ones(len(pts), dtype=np.int64)
+        got, moved = slide_to_fronts(voted, S, pts, lab, pri)
+        np.testing.assert_allclose(got[1, :3, 3], T[1, :3, 3], atol=1e-9)
+        np.testing.assert_array_equal(got[1, :3, :3], voted[1, :3, :3])
+        np.testing.assert_array_equal(got[0], voted[0])
+        assert moved[0] == pytest.approx(-0.5)
+        # a drawer voted too deep into the cabinet comes out to the panel the same way
+        deep = T.copy()
+        deep[1, :3, 3] -= 0.2 * (T[0, :3, :3] @ [0.0, 0.0, 1.0])
+        got, moved = slide_to_fronts(deep, S, pts, lab, pri)
+        np.testing.assert_allclose(got[1, :3, 3], T[1, :3, 3], atol=1e-9)
+        assert moved[0] == pytest.approx(0.2)
+
+
+def test_a_drawer_whose_front_is_near_its_points_keeps_its_voted_centre():
+    """A box voted 6 cm too deep (0.06 m / 0.65 m diagonal, under ``min_shift``'s 10 %) keeps its centre: moving
+    its front onto the panel would carry the voted depth's error into the centre; at ``min_shift=0`` it moves."""
+    from ucope.voting import slide_to_fronts
+
+    pri = _cabinet_priors()
+    T, voted, S, pts = _drawer_front_scene(np.random.default_rng(8), voted_offset=0.06)
+    lab = np.ones(len(pts), dtype=np.int64)
+    got, moved = slide_to_fronts(voted, S, pts, lab, pri)
+    np.testing.assert_array_equal(got, voted)
+    assert not moved.any()
+    got, moved = slide_to_fronts(voted, S, pts, lab, pri, min_shift=0.0)
+    np.testing.assert_allclose(got[1, :3, 3], T[1, :3, 3], atol=1e-9)
+    assert moved[0] == pytest.approx(-0.06)
+
+
+def test_a_drawer_slides_to_the_quantile_of_its_points_not_a_stray_one():
+    """One stray point 0.4 m out in front does not carry the front with it (the 98th percentile of 301 points);
+    points of other parts, and points below the confidence, do not count."""
+    from ucope.voting import slide_to_fronts
+
+    pri = _cabinet_priors()
+    T, voted, S, pts = _drawer_front_scene(np.random.default_rng(5))
+    out = T[1, :3, 3] + T[1, :3, :3] @ [0.0, 0.0, 0.625]
+    lab = np.ones(len(pts) + 2, dtype=np.int64)
+    lab[-1] = 0  # a cabinet point further out still
+    cloud = np.vstack([pts, out, T[1, :3, 3] + T[1, :3, :3] @ [0.0, 0.0, 0.9]])
+    got, _ = slide_to_fronts(voted, S, cloud, lab, pri)
+    np.testing.assert_allclose(got[1, :3, 3], T[1, :3, 3], atol=1e-9)
+    unsure = np.ones(len(cloud))
+    unsure[: len(pts)] = 0.2  # only the stray points are sure: fewer than min_points, the drawer stays
+    got, moved = slide_to_fronts(voted, S, cloud, lab, pri, confidence=unsure)
+    np.testing.assert_array_equal(got, voted)
+    assert not moved.any()
+
+
+def test_sliding_leaves_drawers_with_few_points_and_revolute_joints_alone():
+    from ucope.priors import CategoryPriors, JointPrior
+    from ucope.voting import slide_to_fronts
+
+    pri = _cabinet_priors()
+    T, voted, S, pts = _drawer_front_scene(np.random.default_rng(6))
+    few = pts[:9]
+    got, moved = slide_to_fronts(voted, S, few, np.ones(len(few), dtype=np.int64), pri)
+    assert np.array_equal(got, voted) and not moved.any()
+    got, _ = slide_to_fronts(voted, S, few, np.ones(len(few), dtype=np.int64), pri, min_points=5)
+    assert not np.array_equal(got, voted)
+    hinge = CategoryPriors("toy", pri.parts, (JointPrior("revolute", 0, 1, (1, 0, 0), limits=(0.0, 1.5)),), norm_scale_m=0.5)
+    got, moved = slide_to_fronts(voted, S, pts, np.ones(len(pts), dtype=np.int64), hinge)
+    assert np.array_equal(got, voted) and not moved.any()
+
+
+def test_sliding_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.voting import slide_to_fronts
+
+    pri = _cabinet_priors()
+    T, voted, S, pts = _drawer_front_scene(np.random.default_rng(7))
+    lab = np.ones(len(pts), dtype=np.int64)
+    with pytest.raises(InputError, match="cam_from_part"):
+        slide_to_fronts(voted[:1], S[:1], pts, lab, pri)
+    with pytest.raises(InputError, match="labels"):
+        slide_to_fronts(voted, S, pts, lab[:-1], pri)
+    with pytest.raises(InputError, match="finite"):
+        slide_to_fronts(voted, S, np.where(np.arange(len(pts))[:, None] == 3, np.nan, pts), lab, pri)
+    with pytest.raises(InputError, match="positive"):
+        slide_to_fronts(voted, S * [[1, 1, 1], [1, 0, 1]], pts, lab, pri)
+    with pytest.raises(InputError, match="quantile"):
+        slide_to_fronts(voted, S, pts, lab, pri, quantile=0.5)
+    with pytest.raises(InputError, match="min_shift"):
+        slide_to_fronts(voted, S, pts, lab, pri, min_shift=-0.1)
+    with pytest.raises(InputError, match="confidence"):
+        slide_to_fronts(voted, S, pts, lab, pri, confidence=np.ones(3))
+
+
 def _door_priors(ratio=(1.0, 0.86, 0.2), spread=(0.004, 0.02, 0.2)):
     """A body and a door hinged along x at the body's front bottom edge (the door's bottom edge)."""
     from ucope.priors import CategoryPriors, JointPrior, PartPrior

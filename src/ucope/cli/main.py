@@ -598,6 +598,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "always had it so; docs/voting.md)",
     )
     p.add_argument(
+        "--no-slide-fronts",
+        action="store_true",
+        help="keep a drawer where voting put it along its slide (default: slid until its front meets its points; "
+        "docs/voting.md)",
+    )
+    p.add_argument(
         "--no-rescale",
         action="store_true",
         help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",

@@ -207,6 +207,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         wide_scale_search=getattr(args, "wide_scale_search", None),
         restarts=getattr(args, "restarts", None),
         place_children=not getattr(args, "no_place_children", False),
+        slide_fronts=not getattr(args, "no_slide_fronts", False),
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,

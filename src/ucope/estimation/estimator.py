@@ -25,10 +25,11 @@ the whole is repeated on the cloud normalised to the model's typical size (``sca
 1.25x it with ``wide_scale_search``) and the highest-scored estimate stands. In every run, after the part
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
 set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
-are (``anchor_faces``), and each prismatic child is put where its parent always held it across the joint's
-axis (``place_children``). Last, every joint state is read off the final boxes and clamped into the category's
-limits (the child moved with it, the joint's score halved where clamped): a reported state always agrees with
-the reported part poses and lies inside the limits.
+are (``anchor_faces``), each prismatic child is put where its parent always held it across the joint's
+axis (``place_children``) and slid along it to where its points end (``slide_fronts``). Last, every joint
+state is read off the final boxes and clamped into the category's limits (the child moved with it, the joint's
+score halved where clamped): a reported state always agrees with the reported part poses and lies inside the
+limits.
 
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
 """
@@ -64,6 +65,7 @@ from ..voting import (
     place_weak_parts,
     regressed_object,
     settle_joint_states,
+    slide_to_fronts,
     vote_object,
 )
 from .confidence import Calibration, part_features
@@ -348,6 +350,10 @@ class Estimator:
             its joint's axis (left-right in its cabinet: :func:`ucope.voting.place_prismatic_children`),
             after the part scores and the box growth. Acts only on models whose priors measured that
             spread (``JointPrior.child_in_parent_spread``); on by default, measured in docs/results.md.
+        slide_fronts: slide each prismatic child (a drawer) whose leading face stands more than
+            ``FRONT_MIN_SHIFT`` of its diagonal from where its points end along its joint's axis until it meets
+            them (:func:`ucope.voting.slide_to_fronts`), after ``place_children``; on by default, measured in
+            docs/results.md.
         restarts: up to this many further estimates, each from another draw of the network's points and of
             the pairs (at the scale the estimate so far was made at), while the best object score so far is
             below :data:`RESTART_BELOW`; the highest-scored estimate stands (ties: the earlier). One draw of
@@ -389,6 +395,7 @@ class Estimator:
         align_faces: bool = False,
         free_space: bool = False,
         place_children: bool = True,
+        slide_fronts: bool = True,
         restarts: int = 0,
     ):
         if not isinstance(model, UCOPENet):
@@ -438,6 +445,7 @@ class Estimator:
         self.align_faces = bool(align_faces)
         self.free_space = bool(free_space)
         self.place_children = bool(place_children)
+        self.slide_fronts = bool(slide_fronts)
         self.restarts = int(restarts)
 
     # ------------------------------------------------------------------------------------- loading
@@ -830,6 +838,16 @@ class Estimator:
         if self.place_children:  # after growth, which may have moved a drawer's centre sideways
             v = dict(v)
             v["cam_from_part"], _ = place_prismatic_children(v["cam_from_part"], v["size_m"], self.priors)
+        if self.slide_fronts and self.priors.num_joints > 0:
+            v = dict(v)
+            v["cam_from_part"], _ = slide_to_fronts(
+                v["cam_from_part"],
+                v["size_m"],
+                p_net,
+                np.where(labels < K, labels, -1),
+                self.priors,
+                confidence=object_conf,
+            )
         if self.free_space and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
             v = dict(v)
             v["cam_from_part"], v["free_space_turned"] = place_weak_parts(

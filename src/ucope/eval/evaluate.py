@@ -410,6 +410,7 @@ def evaluate(
             "wide_scale_search": getattr(estimator, "wide_scale_search", False),
             "restarts": getattr(estimator, "restarts", 0),
             "place_children": getattr(estimator, "place_children", False),
+            "slide_fronts": getattr(estimator, "slide_fronts", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "grow_boxes": getattr(estimator, "grow_boxes", False),

@@ -20,6 +20,7 @@ measured accuracy.
   best, its centre placed from its points.
 * :func:`carry_child_sizes`: a child's extents carried from its parent's measured ones where their ratio is fixed.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
+* :func:`slide_to_fronts`: a drawer slid along its slide until its front meets its points.
 * :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
@@ -50,6 +51,7 @@ from .kinematic import (
     resolve_joint_flips,
     resolve_shape_flips,
     settle_joint_states,
+    slide_to_fronts,
     turn_upright,
     upright_angles_deg,
 )
@@ -85,6 +87,7 @@ __all__ = [
     "carry_child_sizes",
     "upright_angles_deg",
     "place_prismatic_children",
+    "slide_to_fronts",
     "settle_joint_states",
     "vote_object",
     "part_fit",
