@@ -500,6 +500,28 @@ def test_a_drawer_slides_to_the_quantile_of_its_points_not_a_stray_one():
     assert not moved.any()
 
 
+def test_stray_points_out_in_front_of_a_drawer_do_not_carry_its_front():
+    """30 stray points labelled as the drawer (10 % of its panel's), scattered 0.18-0.43 m in front of it (beyond 8
+    times the panel's point spacing): their 98th percentile would put the front over 0.2 m out; only the panel,
+    the largest connected piece, counts. With one piece per point (a tiny ``connect_factor``) the largest is a
+    single point: too few, the drawer stays."""
+    from ucope.voting import slide_to_fronts
+
+    pri = _cabinet_priors()
+    rng = np.random.default_rng(9)
+    T, voted, S, pts = _drawer_front_scene(rng)
+    local = np.c_[rng.uniform(-0.27, 0.27, 30), rng.uniform(-0.1, 0.1, 30), rng.uniform(0.4, 0.65, 30)]
+    cloud = np.vstack([pts, T[1, :3, 3] + local @ T[1, :3, :3].T])
+    lab = np.ones(len(cloud), dtype=np.int64)
+    a = T[1, :3, :3][:, 2]  # the slide axis in the camera frame
+    assert np.quantile((cloud - T[1, :3, 3]) @ a, 0.98) > 0.225 + 0.2  # the plain quantile lies far out
+    got, _ = slide_to_fronts(voted, S, cloud, lab, pri)
+    np.testing.assert_allclose(got[1, :3, 3], T[1, :3, 3], atol=1e-9)
+    same, moved = slide_to_fronts(voted, S, cloud, lab, pri, connect_factor=1e-6)
+    np.testing.assert_array_equal(same, voted)
+    assert not moved.any()
+
+
 def test_sliding_leaves_drawers_with_few_points_and_revolute_joints_alone():
     from ucope.priors import CategoryPriors, JointPrior
     from ucope.voting import slide_to_fronts
@@ -535,6 +557,8 @@ def test_sliding_names_bad_input():
         slide_to_fronts(voted, S, pts, lab, pri, quantile=0.5)
     with pytest.raises(InputError, match="min_shift"):
         slide_to_fronts(voted, S, pts, lab, pri, min_shift=-0.1)
+    with pytest.raises(InputError, match="connect_factor"):
+        slide_to_fronts(voted, S, pts, lab, pri, connect_factor=0.0)
     with pytest.raises(InputError, match="confidence"):
         slide_to_fronts(voted, S, pts, lab, pri, confidence=np.ones(3))
 

@@ -46,6 +46,7 @@ from ..priors import SEEN_MAX_OCCLUDED, SEEN_QUANTILE
 __all__ = [
     "grow_to_points",
     "joined_to_box",
+    "connected_pieces",
     "GROW_QUANTILE",
     "GROW_THIN_RATIO",
     "GROW_MIN_POINTS",
@@ -127,22 +128,28 @@ def _checked_confidence(confidence, n: int) -> np.ndarray:
     return conf
 
 
-def joined_to_box(local: np.ndarray, half: np.ndarray, factor: float) -> np.ndarray:
-    """``(P,)`` bool: which points ``local`` ``(P, 3)`` (a part's frame) lie in a connected piece with a point
-    inside the box ``[-half, half]``; two points are joined when they are at most ``factor`` times the median
-    nearest-neighbour distance apart (components of that radius graph, :mod:`scipy.sparse.csgraph`)."""
+def connected_pieces(points: np.ndarray, factor: float) -> np.ndarray:
+    """``(P,)`` int: the connected piece of every point of ``points`` ``(P, 3)``; two points are joined when
+    they are at most ``factor`` times the median nearest-neighbour distance apart (components of that radius
+    graph, :mod:`scipy.sparse.csgraph`). Fewer than two points: each its own piece."""
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    if len(local) < 2:
-        return np.all(np.abs(local) <= half, axis=1)
-    tree = cKDTree(local)
-    nn = tree.query(local, k=2)[0][:, 1]
+    if len(points) < 2:
+        return np.arange(len(points))
+    tree = cKDTree(points)
+    nn = tree.query(points, k=2)[0][:, 1]
     radius = factor * float(np.median(nn))
     if radius <= 0.0:  # more than half of the points are duplicates: join only equal points
         radius = float(np.finfo(np.float64).eps)
     graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
-    _, piece = connected_components(graph, directed=False)
+    return connected_components(graph, directed=False)[1]
+
+
+def joined_to_box(local: np.ndarray, half: np.ndarray, factor: float) -> np.ndarray:
+    """``(P,)`` bool: which points ``local`` ``(P, 3)`` (a part's frame) lie in a connected piece
+    (:func:`connected_pieces`) with a point inside the box ``[-half, half]``."""
+    piece = connected_pieces(local, factor)
     inside = np.all(np.abs(local) <= half, axis=1)
     return np.isin(piece, np.unique(piece[inside]))
 

@@ -49,6 +49,7 @@ from ..geometry.kinematics import joint_state_from_poses, revolute_angle
 from ..geometry.transforms import closest_rotation, rotation_about_axis
 from ..priors import CategoryPriors
 from ..vocab import JointType
+from .extent import connected_pieces
 
 __all__ = [
     "kinematic_refine",
@@ -63,6 +64,7 @@ __all__ = [
     "FRONT_QUANTILE",
     "FRONT_MIN_POINTS",
     "FRONT_MIN_SHIFT",
+    "FRONT_CONNECT_FACTOR",
     "FRONT_MIN_CONFIDENCE",
     "carry_upright",
     "turn_upright",
@@ -538,6 +540,11 @@ FRONT_MIN_SHIFT = 0.1
 it, the voted centre stands (a box voted 20 % too deep, its front put at the points, would carry half the
 excess depth into its centre)."""
 
+FRONT_CONNECT_FACTOR = 8.0
+"""Only the largest connected piece of a child's points counts (:func:`ucope.voting.extent.connected_pieces`
+with this factor, the box growth's ``GROW_CONNECT_FACTOR``): stray points labelled as the drawer out in front
+of it would carry its front with them."""
+
 FRONT_MIN_CONFIDENCE = 0.5
 """Points whose confidence (the probability that they are the object, not the background) is below this do
 not count (as ``ucope.voting.extent.FIT_MIN_CONFIDENCE``)."""
@@ -552,6 +559,7 @@ def slide_to_fronts(
     quantile: float = FRONT_QUANTILE,
     min_points: int = FRONT_MIN_POINTS,
     min_shift: float = FRONT_MIN_SHIFT,
+    connect_factor: float = FRONT_CONNECT_FACTOR,
     confidence=None,
     min_confidence: float = FRONT_MIN_CONFIDENCE,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -563,7 +571,8 @@ def slide_to_fronts(
     above and behind. Voting, which sees a front panel's points alike from either side of the panel, can put
     the box on the wrong side of it: three of the shipped drawer's failed test views had a drawer with
     200-600 points whose box stood 0.43-0.54 m out in front of the truth, the panel at its back. For each
-    prismatic joint whose child has at least ``min_points`` (confident) points, the child's box face along
+    prismatic joint whose child has at least ``min_points`` (confident) points in its largest connected piece
+    (stray points out in front of it do not count), the child's box face along
     ``a`` is compared with the ``1 - quantile`` quantile of those points' coordinates along it; where they
     lie more than ``min_shift`` of the child's box diagonal apart, the child moves along ``a`` until they
     meet. Rotation and size are kept; the joint state changes by the move (the caller reads the states off
@@ -577,6 +586,8 @@ def slide_to_fronts(
         priors: the category's priors (joint tree, types, canonical axes in the parent frame).
         quantile: in ``[0, 0.5)``; min_points: children with fewer (confident) points stay.
         min_shift: ``>= 0``, in the child's box diagonals: a face nearer its points than this stays.
+        connect_factor: ``> 0``; only the largest connected piece of the child's points counts (two points
+            joined when at most this times their median nearest-neighbour distance apart).
         confidence: optional ``(P,)`` per point, the probability that it is the object; points below
             ``min_confidence`` do not count.
 
@@ -586,8 +597,8 @@ def slide_to_fronts(
 
     Raises:
         InputError: shapes that do not match the priors, non-finite poses, sizes or points, a non-positive
-            size, ``quantile`` outside ``[0, 0.5)``, a negative ``min_shift``, or confidences that are not one
-            finite value per point.
+            size, ``quantile`` outside ``[0, 0.5)``, a negative ``min_shift``, a ``connect_factor`` that is not
+            positive, or confidences that are not one finite value per point.
     """
     T = np.array(cam_from_part, dtype=np.float64)
     S = np.asarray(size_m, dtype=np.float64)
@@ -606,6 +617,8 @@ def slide_to_fronts(
         raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
     if not min_shift >= 0.0:
         raise InputError(f"min_shift must be >= 0, got {min_shift!r}")
+    if not connect_factor > 0.0:
+        raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
     if confidence is not None:
         conf = np.asarray(confidence, dtype=np.float64)
         if conf.shape != (len(pts),) or not np.isfinite(conf).all():
@@ -617,6 +630,10 @@ def slide_to_fronts(
             continue
         c = jp.child
         own = pts[lab == c]
+        if len(own) < max(int(min_points), 1):
+            continue
+        pieces = connected_pieces(own, connect_factor)
+        own = own[pieces == np.bincount(pieces).argmax()]  # the largest piece
         if len(own) < max(int(min_points), 1):
             continue
         R, t = T[c, :3, :3], T[c, :3, 3]
