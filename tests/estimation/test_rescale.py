@@ -28,9 +28,16 @@ def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):
     assert scale == 1.0
     a, b = (
         est.predict(s["points"]),
-        Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes, align_faces=est.align_faces).predict(
-            s["points"]
-        ),
+        Estimator(
+            est.model,
+            num_pairs=2000,
+            rescale=False,
+            grow_boxes=est.grow_boxes,
+            align_faces=est.align_faces,
+            fit_extents=est.fit_extents,
+            calibration=est.calibration,
+            scale_search=False,
+        ).predict(s["points"]),
     )
     for pa, pb in zip(a.parts, b.parts, strict=True):
         np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
