@@ -49,7 +49,7 @@ from ..geometry.kinematics import joint_state_from_poses, revolute_angle
 from ..geometry.transforms import closest_rotation, rotation_about_axis
 from ..priors import CategoryPriors
 from ..vocab import JointType
-from .extent import connected_pieces
+from .extent import _checked, _checked_confidence, connected_pieces
 
 __all__ = [
     "kinematic_refine",
@@ -600,19 +600,9 @@ def slide_to_fronts(
             size, ``quantile`` outside ``[0, 0.5)``, a negative ``min_shift``, a ``connect_factor`` that is not
             positive, or confidences that are not one finite value per point.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.asarray(size_m, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64)
-    lab = np.asarray(labels)
-    K = priors.num_parts
-    if T.shape != (K, 4, 4) or S.shape != (K, 3):
-        raise InputError(f"cam_from_part must be ({K}, 4, 4) and size_m ({K}, 3), got {T.shape} and {S.shape}")
-    if pts.ndim != 2 or pts.shape[1] != 3 or lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
-        raise InputError(f"points must have shape (P, 3) and labels (P,) integers, got {pts.shape} and {lab.shape} {lab.dtype}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all()):
-        raise InputError("cam_from_part, size_m and points must be finite")
-    if (S <= 0).any():
-        raise InputError(f"size_m must be positive, got {S.tolist()}")
+    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
+    if len(T) != priors.num_parts:
+        raise InputError(f"cam_from_part must hold the {priors.num_parts} parts of the priors, got {len(T)}")
     if not 0.0 <= quantile < 0.5:
         raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
     if not min_shift >= 0.0:
@@ -620,10 +610,7 @@ def slide_to_fronts(
     if not connect_factor > 0.0:
         raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
     if confidence is not None:
-        conf = np.asarray(confidence, dtype=np.float64)
-        if conf.shape != (len(pts),) or not np.isfinite(conf).all():
-            raise InputError(f"confidence must be {len(pts)} finite values (one per point), got shape {conf.shape}")
-        lab = np.where(conf >= min_confidence, lab, -1)
+        lab = np.where(_checked_confidence(confidence, len(pts)) >= min_confidence, lab, -1)
     moved = np.zeros(len(priors.joints))
     for j, jp in enumerate(priors.joints):  # a handful of joints; the point work is vectorised
         if jp.type != JointType.PRISMATIC:
