@@ -803,6 +803,7 @@ class Estimator:
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
         # the object, not the background, as the segmentation sees it (models with a background class)
         object_conf = 1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None
+        part_labels = np.where(labels < K, labels, -1)  # the background class (models with one) as no part
         if self.grow_boxes:  # after the scores: the calibration's box-fit features see the voted boxes
             v = dict(v)
             v["cam_from_part"], v["size_m"], _ = grow_to_points(
@@ -844,7 +845,7 @@ class Estimator:
                 v["cam_from_part"],
                 v["size_m"],
                 p_net,
-                np.where(labels < K, labels, -1),
+                part_labels,
                 self.priors,
                 confidence=object_conf,
             )
@@ -856,7 +857,7 @@ class Estimator:
                 v["joint_axis"],
                 v["joint_pivot"],
                 p_net,
-                np.where(labels < K, labels, -1),
+                part_labels,
                 self.priors,
                 camera=centre * (1.0 - scale),  # the cloud was scaled about centre (the roll turns about the camera)
             )
@@ -905,16 +906,15 @@ class Estimator:
                 f"the model's threshold {self.calibration.threshold:.2f})"
             )
         t4 = time.perf_counter()
-        background = labels >= K  # the background class (models with one): not the object
-        if background.mean() > 0.5:
+        background = float(np.mean(part_labels < 0))  # the share segmented as the background class
+        if background > 0.5:
             input_warnings.append(
-                f"{100 * background.mean():.0f} % of the points were segmented as not the object: "
-                "is the cloud one segmented object?"
+                f"{100 * background:.0f} % of the points were segmented as not the object: " "is the cloud one segmented object?"
             )
         for k, pe in enumerate(parts):
             if np.count_nonzero(labels == k) < 3:
                 warnings.append(f"part {pe.label!r}: fewer than 3 points were segmented as it; its pose is a guess")
-        point_labels = label_points(pts_in, on_object, p_net, np.where(background, -1, labels))
+        point_labels = label_points(pts_in, on_object, p_net, part_labels)
         t5 = time.perf_counter()
         timings = {
             "preprocess": 1e3 * (t1 - t0 + t5 - t4),
