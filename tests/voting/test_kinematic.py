@@ -636,6 +636,97 @@ def test_carrying_sizes_names_bad_input():
         JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 0.0, 1.0), child_size_spread=(0.0, 0.0, 0.0))
 
 
+def _sized_cabinet_priors(ratio=(0.97, 0.27, 0.95), spread=(0.05, 0.18, 0.047), axis=(0, 0, 1), kind="prismatic"):
+    """A cabinet and one drawer (or door) whose box is ``ratio`` times the cabinet's, varying by ``spread``."""
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+
+    parts = (PartPrior("cabinet", "none", 0.6, (0.6, 0.8, 0.5)), PartPrior("drawer", "none", 0.4, (0.55, 0.2, 0.45)))
+    joint = JointPrior(kind, 0, 1, axis, limits=(0.0, 0.3), child_size_ratio=ratio, child_size_spread=spread)
+    return CategoryPriors("toy", parts, (joint,), norm_scale_m=0.5)
+
+
+def _deep_drawer_scene(seed):
+    """A cabinet 0.5 m deep and its drawer voted 0.6 m deep (0.95 x 0.5 = 0.475 is right), one random rotation."""
+    rng = np.random.default_rng(seed)
+    R = rotation_about_axis(rng.normal(size=3), rng.uniform(0, np.pi))
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[:, :3, :3] = R
+    T[0, :3, 3] = rng.normal(size=3) + [0, 0, 3]
+    T[1, :3, 3] = T[0, :3, 3] + R @ np.array([0.0, 0.2, 0.05])
+    S = np.array([[0.6, 0.8, 0.5], [0.55, 0.2, 0.6]])
+    return T, S, R
+
+
+def test_a_drawer_voted_too_deep_takes_its_cabinets_depth_and_keeps_its_front():
+    """The drawer's depth becomes 0.95 x the cabinet's 0.5 m; its front face (at +z, where it is pulled out)
+    stays where voting put it, so its centre moves 6.25 cm out; rotation, width, height and the cabinet stay.
+    Checked against a plain per-corner reference: the front face's four corners do not move."""
+    from ucope.voting import carry_prismatic_depths
+
+    pri = _sized_cabinet_priors()
+    for seed in range(4):
+        T, S, R = _deep_drawer_scene(seed)
+        got_T, got_S, carried = carry_prismatic_depths(T, S, pri)
+        assert carried.tolist() == [True]
+        np.testing.assert_allclose(got_S[1], [0.55, 0.2, 0.95 * 0.5])
+        np.testing.assert_array_equal(got_S[0], S[0])
+        np.testing.assert_array_equal(got_T[0], T[0])
+        np.testing.assert_array_equal(got_T[1, :3, :3], T[1, :3, :3])
+        np.testing.assert_allclose(got_T[1, :3, 3], T[1, :3, 3] + R @ [0.0, 0.0, 0.5 * (0.6 - 0.475)], atol=1e-12)
+        corners = np.array([[x, y, 0.5] for x in (-0.5, 0.5) for y in (-0.5, 0.5)])  # the front face, unit box
+        before = (corners * S[1]) @ T[1, :3, :3].T + T[1, :3, 3]
+        after = (corners * got_S[1]) @ got_T[1, :3, :3].T + got_T[1, :3, 3]
+        np.testing.assert_allclose(after, before, atol=1e-12)
+    # pulled out along -z instead: the face at -z stays
+    pri = _sized_cabinet_priors(axis=(0, 0, -1))
+    got_T, got_S, _ = carry_prismatic_depths(T, S, pri)
+    np.testing.assert_allclose(got_T[1, :3, 3], T[1, :3, 3] - R @ [0.0, 0.0, 0.5 * (0.6 - 0.475)], atol=1e-12)
+
+
+def test_a_drawer_keeps_its_depth_where_nothing_says_otherwise():
+    """Left alone: a depth within 10 % of the carried one, a depth measured from the points, a ratio that varied
+    by more than 10 %, a revolute joint, a slide across the box axes, priors without size ratios."""
+    from ucope.priors import CategoryPriors, JointPrior
+    from ucope.voting import carry_prismatic_depths
+
+    T, S, _ = _deep_drawer_scene(0)
+    pri = _sized_cabinet_priors()
+    near = S.copy()
+    near[1, 2] = 0.5  # 0.475 is within 10 %
+    measured = np.zeros((2, 3), bool)
+    measured[1, 2] = True
+    bare = CategoryPriors("toy", pri.parts, (JointPrior("prismatic", 0, 1, (0, 0, 1), limits=(0.0, 0.3)),), norm_scale_m=0.5)
+    cases = [
+        (near, pri, None),
+        (S, pri, measured),
+        (S, _sized_cabinet_priors(spread=(0.05, 0.18, 0.15)), None),
+        (S, _sized_cabinet_priors(kind="revolute"), None),
+        (S, _sized_cabinet_priors(axis=(0, 1, 1)), None),
+        (S, bare, None),
+    ]
+    for S2, p, m in cases:
+        got_T, got_S, carried = carry_prismatic_depths(T, S2, p, m)
+        assert not carried.any() and np.array_equal(got_S, S2) and np.array_equal(got_T, T)
+
+
+def test_carrying_depths_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.voting import carry_prismatic_depths
+
+    pri = _sized_cabinet_priors()
+    T, S, _ = _deep_drawer_scene(0)
+    with pytest.raises(InputError, match="shapes"):
+        carry_prismatic_depths(T[:1], S, pri)
+    with pytest.raises(InputError, match="shapes"):
+        carry_prismatic_depths(T, S, pri, np.zeros((3, 3), bool))
+    with pytest.raises(InputError, match="positive"):
+        carry_prismatic_depths(T, -S, pri)
+    with pytest.raises(InputError, match="finite"):
+        carry_prismatic_depths(np.full_like(T, np.nan), S, pri)
+    with pytest.raises(InputError, match="max_spread"):
+        carry_prismatic_depths(T, S, pri, max_spread=-0.1)
+
+
 def test_an_upside_down_rigid_part_is_turned_over_and_placed_from_its_points():
     """laptop_rigid: true poses are left alone; a pose turned upside down (a half turn about the body's x or
     z) with its centre voted off is turned back onto its upright and its centre placed from its points: the

@@ -592,6 +592,11 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "keeping the highest-scored (default: the model's own; docs/results.md)",
     )
     p.add_argument(
+        "--no-carry-depths",
+        action="store_true",
+        help="keep a drawer as deep as voting made it (default: as deep as its cabinet says, its front kept; " "docs/voting.md)",
+    )
+    p.add_argument(
         "--no-place-children",
         action="store_true",
         help="keep a drawer where voting put it (default: centred in its cabinet where the model's training views "

@@ -25,8 +25,9 @@ the whole is repeated on the cloud normalised to the model's typical size (``sca
 1.25x it with ``wide_scale_search``) and the highest-scored estimate stands. In every run, after the part
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
 set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
-are (``anchor_faces``), each prismatic child is put where its parent always held it across the joint's
-axis (``place_children``) and slid along it to where its points end (``slide_fronts``). Last, every joint
+are (``anchor_faces``), each prismatic child is given the depth its parent says it has, its front kept
+(``carry_depths``), put where its parent always held it across the joint's axis (``place_children``) and slid
+along it to where its points end (``slide_fronts``). Last, every joint
 state is read off the final boxes and clamped into the category's limits (the child moved with it, the joint's
 score halved where clamped): a reported state always agrees with the reported part poses and lies inside the
 limits.
@@ -59,6 +60,7 @@ from ..voting import (
     VotingOptions,
     anchor_faced_faces,
     carry_child_sizes,
+    carry_prismatic_depths,
     fit_seen_extents,
     grow_to_points,
     place_prismatic_children,
@@ -346,6 +348,10 @@ class Estimator:
             from the camera and its own points lie on it (:func:`ucope.voting.place_weak_parts`), after the
             box steps, before the joint states are read off the boxes. Off here; :meth:`load` takes the
             model's default (on where it measured better: docs/results.md).
+        carry_depths: give each prismatic child (a drawer) the extent along its joint's axis that its parent's box
+            and the training views' size ratio say it has, its leading face kept
+            (:func:`ucope.voting.carry_prismatic_depths`), after the box fits and before ``place_children``. Acts
+            only where that ratio varied little (``DEPTH_MAX_SPREAD``); on by default, measured in docs/results.md.
         place_children: put each prismatic child (a drawer) where the training views always had it across
             its joint's axis (left-right in its cabinet: :func:`ucope.voting.place_prismatic_children`),
             after the part scores and the box growth. Acts only on models whose priors measured that
@@ -394,6 +400,7 @@ class Estimator:
         anchor_faces: bool = False,
         align_faces: bool = False,
         free_space: bool = False,
+        carry_depths: bool = True,
         place_children: bool = True,
         slide_fronts: bool = True,
         restarts: int = 0,
@@ -444,6 +451,7 @@ class Estimator:
         self.anchor_faces = bool(anchor_faces)
         self.align_faces = bool(align_faces)
         self.free_space = bool(free_space)
+        self.carry_depths = bool(carry_depths)
         self.place_children = bool(place_children)
         self.slide_fronts = bool(slide_fronts)
         self.restarts = int(restarts)
@@ -836,6 +844,9 @@ class Estimator:
             v["cam_from_part"], _ = anchor_faced_faces(
                 v["cam_from_part"], v["size_m"], p_net, labels, self.faced_gap, parts=(0,), keep=fitted, confidence=object_conf
             )
+        if self.carry_depths and self.priors.num_joints > 0:  # after the fits: the parent's extents as they stand
+            v = dict(v)
+            v["cam_from_part"], v["size_m"], _ = carry_prismatic_depths(v["cam_from_part"], v["size_m"], self.priors, fitted)
         if self.place_children:  # after growth, which may have moved a drawer's centre sideways
             v = dict(v)
             v["cam_from_part"], _ = place_prismatic_children(v["cam_from_part"], v["size_m"], self.priors)

@@ -19,6 +19,7 @@ measured accuracy.
 * :func:`turn_upright`: a part of a rigid object voted upside down, turned over by the half turn its points fit
   best, its centre placed from its points.
 * :func:`carry_child_sizes`: a child's extents carried from its parent's measured ones where their ratio is fixed.
+* :func:`carry_prismatic_depths`: a drawer as deep as its cabinet says, its front kept.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
 * :func:`slide_to_fronts`: a drawer slid along its slide until its front meets its points.
 * :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
@@ -45,6 +46,7 @@ from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
     ShapeIndex,
     carry_child_sizes,
+    carry_prismatic_depths,
     carry_upright,
     kinematic_refine,
     place_prismatic_children,
@@ -85,6 +87,7 @@ __all__ = [
     "carry_upright",
     "turn_upright",
     "carry_child_sizes",
+    "carry_prismatic_depths",
     "upright_angles_deg",
     "place_prismatic_children",
     "slide_to_fronts",
