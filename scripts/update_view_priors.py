@@ -2,6 +2,7 @@
 
     python scripts/update_view_priors.py --model src/ucope/pretrained/laptop.json --data DATA [--num 2000]
     python scripts/update_view_priors.py --model ... --data DATA --extent-only
+    python scripts/update_view_priors.py --model ... --data DATA --stacks-only
 
 ``ucope train`` measures these priors (``PartPrior.upright_*`` and ``seen_extent``,
 ``JointPrior.pivot_in_parent`` / ``pivot_in_child``; with ``--radius`` also ``radius_typical_m``:
@@ -9,7 +10,9 @@
 they existed, leaving every other prior, the weights and the model card alone, so that its predictions
 change only where :func:`ucope.voting.kinematic.carry_upright` re-places a part (or, with the seen extents,
 where ``fit_extents`` / ``anchor_faces`` are on). ``--extent-only`` writes the seen extents, faced gaps and
-child size ratios alone and records them in ``info.seen_extent_from``.
+child size ratios alone and records them in ``info.seen_extent_from``; ``--stacks-only`` writes the stacks of
+prismatic children alone (``CategoryPriors.stacks``, :func:`ucope.priors.stack_statistics`: the drawers of a
+chest) and records them in ``info.stacks_from``; without either flag the stacks are written with the rest.
 ``DATA`` is a data set of the model's category made by ``ucope generate`` (training split). The JSON is
 rewritten atomically; ``info.view_priors_from`` records the data set and how many views were used.
 """
@@ -20,12 +23,14 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from ucope.data.dataset import load_dataset  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
-from ucope.priors import measure_priors  # noqa: E402
+from ucope.priors import JointPrior, measure_priors, stack_statistics  # noqa: E402
 
 PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg", "seen_extent", "faced_gap")
 JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child", "child_size_ratio", "child_size_spread")
@@ -44,7 +49,15 @@ def main(argv=None) -> int:
         help="write only the seen-extent and faced-gap tables and the child size ratios (PartPrior.seen_extent, "
         "faced_gap, JointPrior.child_size_ratio / child_size_spread)",
     )
+    ap.add_argument(
+        "--stacks-only",
+        action="store_true",
+        help="write only the stacks of prismatic children (CategoryPriors.stacks: drawers one above the other)",
+    )
     args = ap.parse_args(argv)
+    if args.extent_only and args.stacks_only:
+        print("error: --extent-only and --stacks-only exclude each other", file=sys.stderr)
+        return 2
     meta = read_json(args.model)
     pri = meta["config"]["priors"]
     ds = load_dataset(args.data)
@@ -52,6 +65,23 @@ def main(argv=None) -> int:
         have = ds.meta.get("category")
         print(f"error: {args.data} holds {have!r} views, the model is a {pri['category']!r} model", file=sys.stderr)
         return 2
+    made = {k: ds.meta.get(k) for k in ("split", "seed", "num", "generator_version")}  # how to make the views again
+    if args.stacks_only:
+        picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), args.num)).round().astype(np.int64))]
+        T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
+        S = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
+        joints = [JointPrior(**{k: j[k] for k in ("type", "parent", "child", "axis_in_parent")}) for j in pri["joints"]]
+        pri["stacks"] = [st.to_dict() for st in stack_statistics(T, S, joints)]
+        meta.setdefault("info", {})["stacks_from"] = {"data": Path(args.data).name, **made, "num_samples": len(picked)}
+        atomic_write_json(args.model, meta)
+        for st in pri["stacks"]:
+            print(
+                f"stack {st['children']} in part {st['parent']} along {'xyz'[st['axis']]}: gap under its face "
+                f"{st['first_gap']:.3f}, between children {st['gap']:.3f} (of the parent's extent)"
+            )
+        if not pri["stacks"]:
+            print("no stacks")
+        return 0
     new = measure_priors(ds, pri["category"], ds.meta["structure"], max_samples=args.num, template_samples=1).to_dict()
     part_fields = ("seen_extent", "faced_gap") if args.extent_only else PART_FIELDS
     for old, fresh in zip(pri["parts"], new["parts"], strict=True):
@@ -60,8 +90,9 @@ def main(argv=None) -> int:
         old.update({k: fresh[k] for k in (EXTENT_JOINT_FIELDS if args.extent_only else JOINT_FIELDS)})
     if args.radius:
         pri["radius_typical_m"] = new["radius_typical_m"]
+    if not args.extent_only:
+        pri["stacks"] = new["stacks"]
     key = "seen_extent_from" if args.extent_only else "view_priors_from"
-    made = {k: ds.meta.get(k) for k in ("split", "seed", "num", "generator_version")}  # how to make the views again
     meta.setdefault("info", {})[key] = {"data": Path(args.data).name, **made, "num_samples": new["num_samples"]}
     atomic_write_json(args.model, meta)
     for p in pri["parts"]:

@@ -10,16 +10,19 @@ import pytest
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
 from ucope.geometry.boxes import SEEN_PATTERNS
+from ucope.geometry.transforms import rotation_about_axis
 from ucope.objects.categories import make_instance
 from ucope.priors import (
     CategoryPriors,
     JointPrior,
     PartPrior,
+    StackPrior,
     faced_gap_statistics,
     measure_priors,
     pivot_offsets,
     placement_offsets,
     seen_extent_statistics,
+    stack_statistics,
     structure_from_dict,
     upright_statistics,
 )
@@ -73,6 +76,10 @@ def test_prismatic_zero_offsets_and_limits_widened_to_the_states_seen():
         assert j.child_in_parent_spread[0] < 1e-9 and j.child_in_parent_spread[2] > 0.01
     back = CategoryPriors.from_dict(pri.to_dict())
     assert [j.child_in_parent_spread for j in back.joints] == [j.child_in_parent_spread for j in pri.joints]
+    # the drawers stand one above the other, top first, just under the cabinet's top
+    (st,) = pri.stacks
+    assert (st.parent, st.axis, st.children) == (0, 1, (1, 2, 3)) and back.stacks == pri.stacks
+    assert 0.0 <= st.first_gap < 0.12 and 0.0 <= st.gap < 0.05
     rigid = measure_priors(_samples("mug", 3), "mug", _structure("mug"))
     assert rigid.joints == () and rigid.num_parts == 1
 
@@ -228,3 +235,70 @@ def test_faced_gaps_are_small_for_the_faces_the_camera_faces_and_round_trip():
         PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), faced_gap=[[[0.0, 0.0, 0.0]] * 3] * 3)
     with pytest.raises(InputError, match="faced_gap"):
         PartPrior("a", "none", 0.2, (0.1, 0.1, 0.1), faced_gap=[[[float("inf"), 0.0, 0.0]] * 2] * 3)
+
+
+def _stacked_views(rng, n=30, overlap=0.0):
+    """``n`` views of a cabinet (part 0, 0.6 x H x 0.5) with three drawers (parts 1-3, given bottom first) stacked
+    top down from 0.02 H under its top with 5 mm between them (``overlap``: the middle one pushed up into the top
+    one by that much of H), each view under a random rotation, the drawers pulled out at random."""
+    T = np.tile(np.eye(4), (n, 4, 1, 1))
+    S = np.zeros((n, 4, 3))
+    for v in range(n):
+        H = rng.uniform(0.4, 1.2)
+        h = rng.uniform(0.15, 0.25, 3) * H
+        S[v] = [[0.6, H, 0.5], [0.55, h[2], 0.45], [0.55, h[1], 0.45], [0.55, h[0], 0.45]]  # parts 1-3: bottom first
+        R = rotation_about_axis(rng.normal(size=3), rng.uniform(0, np.pi))
+        top = 0.5 * H - 0.02 * H
+        y = []
+        for k in range(3):  # top, middle, bottom
+            y.append(top - 0.5 * h[k])
+            top -= h[k] + 0.005
+        y[1] += overlap * H
+        T[v, :, :3, :3] = R
+        T[v, 0, :3, 3] = rng.normal(size=3)
+        for k, part in enumerate((3, 2, 1)):
+            T[v, part, :3, 3] = T[v, 0, :3, 3] + R @ [0.0, y[k], rng.uniform(0.0, 0.3)]
+    return T, S
+
+
+def _prismatic(children, axis=(0, 0, 1)):
+    return [JointPrior("prismatic", 0, c, axis) for c in children]
+
+
+def test_stack_statistics_find_the_drawers_top_down_with_their_gaps():
+    T, S = _stacked_views(np.random.default_rng(0))
+    (st,) = stack_statistics(T, S, _prismatic((1, 2, 3)))
+    assert (st.parent, st.axis, st.children) == (0, 1, (3, 2, 1))  # top first, whatever the joints' order
+    assert st.first_gap == pytest.approx(0.02, abs=1e-9) and st.first_gap_spread == pytest.approx(0.0, abs=1e-9)
+    gaps = 0.005 / S[:, 0, 1]
+    assert st.gap == pytest.approx(np.median(np.r_[gaps, gaps])) and st.gap_spread > 0  # 5 mm over H
+    back = StackPrior(**json.loads(json.dumps(st.to_dict())))
+    assert back == st
+    # drawers that overlap in a view, one drawer alone, revolute joints, a slide along y: no stack
+    T2, S2 = _stacked_views(np.random.default_rng(1), overlap=0.05)
+    assert stack_statistics(T2, S2, _prismatic((1, 2, 3))) == ()
+    assert stack_statistics(T, S, _prismatic((1,))) == ()
+    assert stack_statistics(T, S, [JointPrior("revolute", 0, c, (1, 0, 0)) for c in (1, 2, 3)]) == ()
+    assert stack_statistics(T, S, _prismatic((1, 2, 3), axis=(0, 1, 0))) == ()  # sliding up: side by side across it
+    with pytest.raises(InputError, match="size_m"):
+        stack_statistics(T, S[:, :3], _prismatic((1, 2, 3)))
+    with pytest.raises(InputError, match="positive"):
+        stack_statistics(T, -S, _prismatic((1, 2, 3)))
+
+
+def test_bad_stacks_are_refused():
+    ok = dict(parent=0, axis=1, children=(1, 2), first_gap=0.03, gap=0.005, first_gap_spread=0.06, gap_spread=0.04)
+    for bad, match in (
+        (dict(children=(1,)), "two or more"),
+        (dict(children=(1, 1)), "two or more"),
+        (dict(children=(0, 1)), "two or more"),
+        (dict(axis=3), "axis"),
+        (dict(gap_spread=-0.1), "spreads"),
+        (dict(gap=float("nan")), "gap"),
+    ):
+        with pytest.raises(InputError, match=match):
+            StackPrior(**{**ok, **bad})
+    parts = tuple(PartPrior(f"p{k}", "none", 0.5, (0.5, 0.5, 0.5)) for k in range(3))
+    hinged = (JointPrior("prismatic", 0, 1, (0, 0, 1)), JointPrior("revolute", 0, 2, (1, 0, 0)))
+    with pytest.raises(InputError, match="prismatic children"):
+        CategoryPriors("toy", parts, hinged, stacks=(StackPrior(**ok),))

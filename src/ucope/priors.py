@@ -13,6 +13,8 @@ that made its data.
 * :class:`JointPrior`: a joint's type, parent and child, canonical axis in the parent frame, state
   limits, prismatic zero offset, where its two parts' centres sit relative to each other and where a
   revolute axis passes in each part's unit box;
+* :class:`StackPrior`: prismatic children of one parent that the training views always held one above the
+  other in one order, face to face (drawers in a chest), and the gaps between them (:func:`stack_statistics`);
 * :class:`CategoryPriors`: the whole category, plus per-part shape templates (surface points in each
   part's unit box) and the input normalisation scale.
 
@@ -38,8 +40,11 @@ from .vocab import JointType, parse_symmetry
 __all__ = [
     "PartPrior",
     "JointPrior",
+    "StackPrior",
     "CategoryPriors",
     "structure_from_dict",
+    "stack_statistics",
+    "STACK_MAX_OVERLAP",
     "measure_priors",
     "placement_offsets",
     "pivot_offsets",
@@ -52,6 +57,10 @@ __all__ = [
     "SEEN_MAX_OCCLUDED",
     "SEEN_MIN_VIEWS",
 ]
+
+STACK_MAX_OVERLAP = 0.01
+"""Prismatic children of one parent are a stack (:func:`stack_statistics`) only where no training view had one
+overlap the next, or reach beyond the parent's face, by more than this (in the parent's extent along the axis)."""
 
 TEMPLATE_POINTS = 4096
 """Points per part kept in a shape template measured from training views."""
@@ -303,6 +312,58 @@ class JointPrior:
 
 
 @dataclass(frozen=True)
+class StackPrior:
+    """Prismatic children of one parent that every training view held one above the other along a parent axis
+    across their slides, in one order and face to face (the drawers of a chest): where a view hides some of
+    them, :func:`ucope.voting.stack_hidden_children` puts them next to a seen one (or under the parent's face).
+
+    Attributes:
+        parent: the parent part's index.
+        axis: the parent box axis (0, 1 or 2) they are stacked along, across their joints' axis.
+        children: their part indices, from the parent's ``+axis`` face towards its ``-axis`` face (the top
+            drawer first); at least two.
+        first_gap: the gap between the parent's ``+axis`` face and the first child's, over the parent's extent
+            along ``axis`` (median over the training views).
+        gap: the gap between each child's ``-axis`` face and the next child's ``+axis`` face, same units
+            (median over the training views and neighbours).
+        first_gap_spread, gap_spread: the 10th-90th percentile ranges of the two, same units.
+    """
+
+    parent: int
+    axis: int
+    children: tuple[int, ...]
+    first_gap: float
+    gap: float
+    first_gap_spread: float
+    gap_spread: float
+
+    def __post_init__(self) -> None:
+        children = tuple(int(c) for c in self.children)
+        if len(children) < 2 or len(set(children)) != len(children) or self.parent in children:
+            raise InputError(f"a stack needs two or more distinct children other than its parent, got {self.children}")
+        if int(self.axis) not in (0, 1, 2):
+            raise InputError(f"a stack's axis must be 0, 1 or 2, got {self.axis!r}")
+        object.__setattr__(self, "children", children)
+        object.__setattr__(self, "parent", int(self.parent))
+        object.__setattr__(self, "axis", int(self.axis))
+        for name in ("first_gap", "gap", "first_gap_spread", "gap_spread"):
+            object.__setattr__(self, name, float(_finite(getattr(self, name), f"stack {name}")))
+        if self.first_gap_spread < 0 or self.gap_spread < 0:
+            raise InputError(f"a stack's spreads must be >= 0, got {self.first_gap_spread}, {self.gap_spread}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "parent": self.parent,
+            "axis": self.axis,
+            "children": list(self.children),
+            "first_gap": self.first_gap,
+            "gap": self.gap,
+            "first_gap_spread": self.first_gap_spread,
+            "gap_spread": self.gap_spread,
+        }
+
+
+@dataclass(frozen=True)
 class CategoryPriors:
     """Everything prediction needs to know about a category (see the module docstring).
 
@@ -323,6 +384,8 @@ class CategoryPriors:
         shape_templates: per part, ``(P_k, 3)`` float32 surface points in the part's unit box (part frame
             divided by the box extents), seen over the category's instances; ``()`` when not measured
             (the rigid shape-flip check is then skipped).
+        stacks: the :class:`StackPrior` of the category (:func:`stack_statistics`); ``()`` where it has none
+            or they were not measured.
     """
 
     category: str
@@ -333,6 +396,7 @@ class CategoryPriors:
     radius_range_m: tuple[float, float] | None = None
     radius_typical_m: tuple[float, float] | None = None
     shape_templates: tuple[np.ndarray, ...] = field(default=(), compare=False)
+    stacks: tuple[StackPrior, ...] = ()
 
     def __post_init__(self) -> None:
         parts, joints = tuple(self.parts), tuple(self.joints)
@@ -371,6 +435,14 @@ class CategoryPriors:
         if any(not np.all(np.isfinite(t)) for t in templates):
             raise InputError(f"category {self.category!r}: shape templates must be finite")
         object.__setattr__(self, "shape_templates", templates)
+        stacks = tuple(self.stacks)
+        prismatic = {(j.parent, j.child) for j in joints if j.type == JointType.PRISMATIC}
+        for st in stacks:
+            if any((st.parent, c) not in prismatic for c in st.children):
+                raise InputError(
+                    f"category {self.category!r}: stack {list(st.children)} must be prismatic children of part {st.parent}"
+                )
+        object.__setattr__(self, "stacks", stacks)
 
     # ------------------------------------------------------------------------------------ views
     @property
@@ -436,6 +508,7 @@ class CategoryPriors:
             "num_samples": int(self.num_samples),
             "radius_range_m": None if self.radius_range_m is None else list(self.radius_range_m),
             "radius_typical_m": None if self.radius_typical_m is None else list(self.radius_typical_m),
+            "stacks": [st.to_dict() for st in self.stacks],
         }
 
     def tensors(self) -> dict[str, np.ndarray]:
@@ -491,6 +564,7 @@ class CategoryPriors:
                 radius_range_m=None if rr is None else tuple(rr),
                 radius_typical_m=_tuple_or_none(d.get("radius_typical_m")),
                 shape_templates=templates,
+                stacks=tuple(StackPrior(**st) for st in d.get("stacks") or ()),
             )
         except (KeyError, TypeError, ValueError) as e:
             raise InputError(f"malformed category priors: {type(e).__name__}: {e}") from None
@@ -728,6 +802,66 @@ def shape_template_points(samples: Sequence[Mapping[str, Any]], part: int, max_p
     return allp.astype(np.float32)
 
 
+def stack_statistics(cam_from_part, size_m, joints: Sequence[JointPrior]) -> tuple[StackPrior, ...]:
+    """The stacks of prismatic children (:class:`StackPrior`) that training views at the true poses show.
+
+    Prismatic children of one parent sliding along one axis are grouped; along the parent axis across the
+    slide on which their mean places (over the parent's extent) differ most, they are ordered from the
+    ``+`` face down. They form a stack only where, in every view, each child's box ends above the next one's
+    and the first lies within the parent's ``+`` face (each overlap at most :data:`STACK_MAX_OVERLAP`).
+
+    Args:
+        cam_from_part: ``(S, K, 4, 4)`` true part poses of ``S`` views; size_m: ``(S, K, 3)`` box extents.
+        joints: the category's joints (types, parents, children, canonical axes).
+
+    Returns:
+        the stacks found, in the order of their first joints.
+
+    Raises:
+        InputError: poses and sizes of other shapes, or non-positive sizes.
+    """
+    T = np.asarray(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    if T.ndim != 4 or T.shape[2:] != (4, 4) or S.shape != T.shape[:2] + (3,):
+        raise InputError(f"cam_from_part must be (S, K, 4, 4) and size_m (S, K, 3), got {T.shape} and {S.shape}")
+    if not (S > 0).all():
+        raise InputError("size_m must be positive")
+    groups: dict[tuple, list[int]] = {}
+    for jp in joints:
+        if jp.type == JointType.PRISMATIC:
+            groups.setdefault((jp.parent, tuple(np.round(jp.axis_in_parent, 6))), []).append(jp.child)
+    stacks = []
+    for (p, axis), children in groups.items():
+        across = [i for i in range(3) if abs(axis[i]) < 1e-6]
+        if len(children) < 2 or not across:
+            continue
+        c = np.asarray(children)
+        local = np.einsum("sji,snj->sni", T[:, p, :3, :3], T[:, c][..., :3, 3] - T[:, p, None, :3, 3])  # (S, n, 3)
+        H = S[:, p]  # (S, 3)
+        place = (local / H[:, None, :]).mean(0)  # (n, 3) mean places over the parent's extents
+        i = across[int(np.argmax([np.ptp(place[:, a]) for a in across]))]
+        order = np.argsort(-place[:, i], kind="stable")
+        top = (local[:, order, i] + 0.5 * S[:, c[order], i]) / H[:, i, None]  # (S, n) each child's + face
+        bottom = (local[:, order, i] - 0.5 * S[:, c[order], i]) / H[:, i, None]
+        first = 0.5 - top[:, 0]
+        gaps = bottom[:, :-1] - top[:, 1:]
+        if (first < -STACK_MAX_OVERLAP).any() or (gaps < -STACK_MAX_OVERLAP).any():
+            continue
+        q1, q2 = np.percentile(first, [10.0, 90.0]), np.percentile(gaps, [10.0, 90.0])
+        stacks.append(
+            StackPrior(
+                parent=p,
+                axis=i,
+                children=tuple(int(k) for k in c[order]),
+                first_gap=float(np.median(first)),
+                gap=float(np.median(gaps)),
+                first_gap_spread=float(q1[1] - q1[0]),
+                gap_spread=float(q2[1] - q2[0]),
+            )
+        )
+    return tuple(stacks)
+
+
 def measure_priors(
     samples: Sequence[Mapping[str, Any]],
     category: str,
@@ -749,7 +883,8 @@ def measure_priors(
     zero offsets and part placements at the true poses (with their spread for prismatic joints), joint
     limits = the declared limits widened to every state seen, revolute pivots in the parts' unit boxes
     (:func:`pivot_offsets`), the upright axes (:func:`upright_statistics`), the seen extents
-    (:func:`seen_extent_statistics`) and the faced gaps (:func:`faced_gap_statistics`).
+    (:func:`seen_extent_statistics`), the faced gaps (:func:`faced_gap_statistics`) and the stacks of prismatic
+    children (:func:`stack_statistics`).
     Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
     """
     from .geometry.kinematics import prismatic_zero_offset
@@ -823,6 +958,7 @@ def measure_priors(
                     **extra,
                 )
             )
+    stacks = stack_statistics(T, size, joints)
     t_idx = np.unique(np.linspace(0, n - 1, min(n, int(template_samples))).round().astype(np.int64))
     t_samples = [samples[int(i)] for i in t_idx]
     templates = tuple(shape_template_points(t_samples, k) for k in range(K))
@@ -835,4 +971,5 @@ def measure_priors(
         radius_range_m=(min(robust), max(robust)),
         radius_typical_m=tuple(float(v) for v in np.percentile(robust, [2.0, 98.0])),
         shape_templates=templates,
+        stacks=stacks,
     )

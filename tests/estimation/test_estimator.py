@@ -563,7 +563,7 @@ def test_placing_children_acts_only_where_the_priors_hold_the_spread(tiny_run):
         np.testing.assert_array_equal(a.cam_from_part, b.cam_from_part)
 
 
-def test_the_carry_depths_place_children_and_slide_fronts_flags_reach_the_estimator(tiny_run):
+def test_the_drawer_step_flags_reach_the_estimator(tiny_run):
     import argparse
 
     from ucope.cli.outputs import estimator_options
@@ -578,6 +578,8 @@ def test_the_carry_depths_place_children_and_slide_fronts_flags_reach_the_estima
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_slide_fronts=True))).slide_fronts
     assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).carry_depths
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_carry_depths=True))).carry_depths
+    assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).stack_children
+    assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_stack_children=True))).stack_children
 
 
 def test_the_shipped_drawer_puts_its_drawers_in_the_middle_of_the_cabinet():

@@ -727,6 +727,119 @@ def test_carrying_depths_names_bad_input():
         carry_prismatic_depths(T, S, pri, max_spread=-0.1)
 
 
+def _chest(first_gap_spread=0.06, gap_spread=0.04):
+    """A cabinet (part 0, 0.6 x 1.0 x 0.5) with three drawers stacked top down (parts 1-3) along its y."""
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior, StackPrior
+
+    parts = (PartPrior("cabinet", "none", 0.8, (0.6, 1.0, 0.5)),) + tuple(
+        PartPrior(f"drawer{k}", "none", 0.4, (0.55, 0.25, 0.45)) for k in (1, 2, 3)
+    )
+    joints = tuple(JointPrior("prismatic", 0, k, (0, 0, 1), limits=(0.0, 0.3)) for k in (1, 2, 3))
+    stack = StackPrior(0, 1, (1, 2, 3), first_gap=0.03, gap=0.005, first_gap_spread=first_gap_spread, gap_spread=gap_spread)
+    return CategoryPriors("chest", parts, joints, norm_scale_m=0.5, stacks=(stack,))
+
+
+def _chest_scene(seed):
+    """Voted poses: the drawers (0.2 / 0.25 / 0.3 m tall) at 0.55 / 0.3 / 0 m up the cabinet's y, pulled out
+    0.1 / 0.02 / 0.2 m, under one random rotation."""
+    rng = np.random.default_rng(seed)
+    R = rotation_about_axis(rng.normal(size=3), rng.uniform(0, np.pi))
+    T = np.tile(np.eye(4), (4, 1, 1))
+    T[:, :3, :3] = R
+    T[0, :3, 3] = rng.normal(size=3) + [0, 0, 3]
+    local = np.array([[0, 0, 0], [0.0, 0.55, 0.1], [0.0, 0.3, 0.02], [0.0, 0.0, 0.2]])
+    T[1:, :3, 3] = T[0, :3, 3] + local[1:] @ R.T
+    S = np.array([[0.6, 1.0, 0.5], [0.55, 0.2, 0.45], [0.55, 0.25, 0.45], [0.55, 0.3, 0.45]])
+    return T, S, R
+
+
+def _labels(counts):
+    return np.repeat(np.arange(len(counts)), counts)
+
+
+def _local_y(T, R):
+    return [float(R[:, 1] @ (T[k, :3, 3] - T[0, :3, 3])) for k in range(4)]
+
+
+def test_hidden_drawers_are_stacked_under_a_seen_one_above_them():
+    """The top drawer is seen (kept where voted, 0.55 m up); the middle and bottom ones, hidden, hang under it
+    0.005 x 1 m apart: each one's top face 5 mm under the bottom face of the one above. Only their heights
+    change; the slide (z), left-right (x), rotations and sizes stay."""
+    from ucope.voting import stack_hidden_children
+
+    pri = _chest()
+    for seed in range(3):
+        T, S, R = _chest_scene(seed)
+        got, moved = stack_hidden_children(T, S, _labels([500, 200, 3, 0]), pri)
+        y = _local_y(got, R)
+        assert y[1] == pytest.approx(0.55)
+        assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125)
+        assert y[3] == pytest.approx(y[2] - 0.125 - 0.005 - 0.15)
+        for k in range(4):
+            np.testing.assert_allclose(R.T @ (got[k, :3, 3] - T[k, :3, 3]), [0.0, y[k] - _local_y(T, R)[k], 0.0], atol=1e-12)
+            np.testing.assert_array_equal(got[k, :3, :3], T[k, :3, :3])
+        np.testing.assert_allclose(moved, np.array(y) - _local_y(T, R), atol=1e-12)
+
+
+def test_hidden_drawers_go_on_a_seen_one_below_or_under_the_cabinets_top():
+    """Only the bottom drawer seen: the middle one sits on it, the top one on the middle one. None seen: the top
+    drawer's top face 0.03 x 1 m under the cabinet's, the others under it. All seen: nothing moves."""
+    from ucope.voting import stack_hidden_children
+
+    pri = _chest()
+    T, S, R = _chest_scene(0)
+    y = _local_y(stack_hidden_children(T, S, _labels([500, 0, 0, 50]), pri)[0], R)
+    assert y[3] == pytest.approx(0.0, abs=1e-12)
+    assert y[2] == pytest.approx(0.15 + 0.005 + 0.125) and y[1] == pytest.approx(y[2] + 0.125 + 0.005 + 0.1)
+    y = _local_y(stack_hidden_children(T, S, _labels([500, 0, 0, 0]), pri)[0], R)
+    assert y[1] == pytest.approx(0.5 - 0.03 - 0.1)
+    assert y[2] == pytest.approx(y[1] - 0.1 - 0.005 - 0.125) and y[3] == pytest.approx(y[2] - 0.125 - 0.005 - 0.15)
+    # the middle one hidden between two seen ones hangs under the top one
+    y = _local_y(stack_hidden_children(T, S, _labels([500, 40, 0, 40]), pri)[0], R)
+    assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125) and y[3] == pytest.approx(0.0, abs=1e-12)
+    same, moved = stack_hidden_children(T, S, _labels([500, 40, 40, 40]), pri)
+    assert np.array_equal(same, T) and not moved.any()
+
+
+def test_stacking_leaves_loose_stacks_doubted_points_and_stackless_priors_alone():
+    from ucope.voting import stack_hidden_children
+
+    T, S, R = _chest_scene(1)
+    lab = _labels([500, 0, 0, 0])
+    for pri in (_chest(first_gap_spread=0.2), _chest(gap_spread=0.15), _cabinet_priors()):
+        if pri.num_parts != 4:  # a category without stacks
+            T2, S2 = T[:2], S[:2]
+            same, moved = stack_hidden_children(T2, S2, np.zeros(10, int), pri)
+            assert np.array_equal(same, T2) and not moved.any()
+            continue
+        same, moved = stack_hidden_children(T, S, lab, pri)
+        assert np.array_equal(same, T) and not moved.any()
+    # the middle drawer's 40 points doubted by the segmentation (confidence 0.3): it counts as hidden
+    lab = _labels([500, 40, 40, 40])
+    conf = np.where(lab == 2, 0.3, 0.99)
+    y = _local_y(stack_hidden_children(T, S, lab, _chest(), confidence=conf)[0], R)
+    assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125)
+
+
+def test_stacking_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.voting import stack_hidden_children
+
+    pri = _chest()
+    T, S, _ = _chest_scene(0)
+    lab = _labels([10, 10, 10, 10])
+    with pytest.raises(InputError, match="cam_from_part"):
+        stack_hidden_children(T[:3], S, lab, pri)
+    with pytest.raises(InputError, match="positive"):
+        stack_hidden_children(T, -S, lab, pri)
+    with pytest.raises(InputError, match="labels"):
+        stack_hidden_children(T, S, lab.astype(float), pri)
+    with pytest.raises(InputError, match="confidence"):
+        stack_hidden_children(T, S, lab, pri, confidence=np.ones(3))
+    with pytest.raises(InputError, match="max_spread"):
+        stack_hidden_children(T, S, lab, pri, max_spread=-1.0)
+
+
 def test_an_upside_down_rigid_part_is_turned_over_and_placed_from_its_points():
     """laptop_rigid: true poses are left alone; a pose turned upside down (a half turn about the body's x or
     z) with its centre voted off is turned back onto its upright and its centre placed from its points: the

@@ -609,6 +609,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "docs/voting.md)",
     )
     p.add_argument(
+        "--no-stack-children",
+        action="store_true",
+        help="keep a hidden drawer where voting put it (default: stacked against a seen drawer or under its "
+        "cabinet's top; docs/voting.md)",
+    )
+    p.add_argument(
         "--no-rescale",
         action="store_true",
         help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",

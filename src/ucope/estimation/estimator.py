@@ -26,8 +26,9 @@ the whole is repeated on the cloud normalised to the model's typical size (``sca
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
 set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
 are (``anchor_faces``), each prismatic child is given the depth its parent says it has, its front kept
-(``carry_depths``), put where its parent always held it across the joint's axis (``place_children``) and slid
-along it to where its points end (``slide_fronts``). Last, every joint
+(``carry_depths``), put where its parent always held it across the joint's axis (``place_children``), slid
+along it to where its points end (``slide_fronts``), and, where a view hides it, stacked against a seen sibling
+(``stack_children``). Last, every joint
 state is read off the final boxes and clamped into the category's limits (the child moved with it, the joint's
 score halved where clamped): a reported state always agrees with the reported part poses and lies inside the
 limits.
@@ -68,6 +69,7 @@ from ..voting import (
     regressed_object,
     settle_joint_states,
     slide_to_fronts,
+    stack_hidden_children,
     vote_object,
 )
 from .confidence import Calibration, part_features
@@ -360,6 +362,10 @@ class Estimator:
             ``FRONT_MIN_SHIFT`` of its diagonal from where its points end along its joint's axis until it meets
             them (:func:`ucope.voting.slide_to_fronts`), after ``place_children``; on by default, measured in
             docs/results.md.
+        stack_children: put each child of a stack (:class:`ucope.priors.StackPrior`: the drawers of a chest) that
+            shows fewer than ``STACK_MIN_POINTS`` points against its nearest seen sibling, or under its parent's
+            face (:func:`ucope.voting.stack_hidden_children`), after ``slide_fronts``. Acts only on models whose
+            priors hold stacks; on by default, measured in docs/results.md.
         restarts: up to this many further estimates, each from another draw of the network's points and of
             the pairs (at the scale the estimate so far was made at), while the best object score so far is
             below :data:`RESTART_BELOW`; the highest-scored estimate stands (ties: the earlier). One draw of
@@ -403,6 +409,7 @@ class Estimator:
         carry_depths: bool = True,
         place_children: bool = True,
         slide_fronts: bool = True,
+        stack_children: bool = True,
         restarts: int = 0,
     ):
         if not isinstance(model, UCOPENet):
@@ -454,6 +461,7 @@ class Estimator:
         self.carry_depths = bool(carry_depths)
         self.place_children = bool(place_children)
         self.slide_fronts = bool(slide_fronts)
+        self.stack_children = bool(stack_children)
         self.restarts = int(restarts)
 
     # ------------------------------------------------------------------------------------- loading
@@ -859,6 +867,11 @@ class Estimator:
                 part_labels,
                 self.priors,
                 confidence=object_conf,
+            )
+        if self.stack_children and self.priors.stacks:
+            v = dict(v)
+            v["cam_from_part"], _ = stack_hidden_children(
+                v["cam_from_part"], v["size_m"], part_labels, self.priors, confidence=object_conf
             )
         if self.free_space and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
             v = dict(v)

@@ -74,6 +74,9 @@ __all__ = [
     "carry_prismatic_depths",
     "DEPTH_MAX_SPREAD",
     "DEPTH_MIN_CHANGE",
+    "stack_hidden_children",
+    "STACK_MIN_POINTS",
+    "STACK_MAX_SPREAD",
     "upright_angles_deg",
     "UPRIGHT_MARGIN_DEG",
 ]
@@ -986,3 +989,102 @@ def carry_prismatic_depths(
         S[c, i] = new
         carried[j] = True
     return T, S, carried
+
+
+STACK_MIN_POINTS = 10
+"""A child of a stack with fewer (confident) points than this is hidden: :func:`stack_hidden_children` places it."""
+
+STACK_MAX_SPREAD = 0.1
+"""A stack whose gaps varied by more than this over the training views (10th-90th percentile range, in the
+parent's extent along the stack: ``StackPrior.first_gap_spread`` / ``gap_spread``) places nothing. The shipped
+drawer's: 0.061 under the cabinet's top, 0.038 between drawers."""
+
+
+def stack_hidden_children(
+    cam_from_part,
+    size_m,
+    labels,
+    priors: CategoryPriors,
+    confidence=None,
+    min_points: int = STACK_MIN_POINTS,
+    min_confidence: float = FRONT_MIN_CONFIDENCE,
+    max_spread: float = STACK_MAX_SPREAD,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Put the hidden children of a stack next to a seen one, or under their parent's face.
+
+    The drawers of a chest sit one above the other, in one order, face to face (:class:`ucope.priors.
+    StackPrior`: every training view held them so). A drawer a view hides (behind the cabinet's back, under an
+    open drawer above it) has nothing to vote its height from, and voting puts it where the training drawers
+    were on average: on the shipped drawer's test views, hidden drawers that failed were 0.13 m off in
+    height (median). For each stack whose gaps varied by at most ``max_spread``, each child with fewer than
+    ``min_points`` (confident) points is moved along the stack's axis ``e`` (the parent's box axis, camera
+    frame) to lie against its nearest seen sibling above it, at the stack's median gap: its ``+e`` face
+    ``gap`` (times the parent's extent along ``e``) below that sibling's ``-e`` face, hidden siblings in
+    between chained the same way. Without a seen sibling above, against the nearest seen one below; with
+    none seen, the first child under the parent's ``+e`` face at ``first_gap`` and the rest chained below it.
+    Each child's extent along ``e`` is its box's (``|R_c^T e| . size_c``). Only the coordinate along ``e``
+    changes; rotations, sizes and the other coordinates (the slide, left-right) are kept.
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame or any other, metres).
+        size_m: ``(K, 3)`` box extents (metres, > 0).
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        priors: the category's priors (``CategoryPriors.stacks``; without stacks nothing moves).
+        confidence: optional ``(P,)`` per point, the probability that it is the object; points below
+            ``min_confidence`` do not count.
+        min_points: children with fewer points than this are hidden; max_spread: ``>= 0``, as above.
+
+    Returns:
+        ``(cam_from_part, moved_m)``: a ``(K, 4, 4)`` float64 copy, and ``(K,)`` the signed distance each part
+        moved along its stack's axis (metres; 0 for parts that stayed).
+
+    Raises:
+        InputError: shapes that do not match the priors, non-finite poses or sizes, a non-positive size,
+            labels that are not one integer per point, confidences that are not one finite value per label,
+            a negative ``max_spread``.
+    """
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    K = priors.num_parts
+    if T.shape != (K, 4, 4) or S.shape != (K, 3):
+        raise InputError(f"cam_from_part must be ({K}, 4, 4) and size_m ({K}, 3), got {T.shape} and {S.shape}")
+    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
+        raise InputError("cam_from_part must be finite and size_m finite and positive")
+    lab = np.asarray(labels)
+    if lab.ndim != 1 or not np.issubdtype(lab.dtype, np.integer):
+        raise InputError(f"labels must be one integer per point, got {lab.dtype} of shape {lab.shape}")
+    if not max_spread >= 0.0:
+        raise InputError(f"max_spread must be >= 0, got {max_spread!r}")
+    if confidence is not None:
+        lab = np.where(_checked_confidence(confidence, len(lab)) >= min_confidence, lab, -1)
+    counts = np.bincount(lab[(lab >= 0) & (lab < K)], minlength=K)
+    moved = np.zeros(K)
+    for st in priors.stacks:  # a stack or two; a handful of children each
+        if st.first_gap_spread > max_spread or st.gap_spread > max_spread:
+            continue
+        ch = np.asarray(st.children)
+        seen = counts[ch] >= max(int(min_points), 1)
+        if seen.all():
+            continue
+        e = T[st.parent, :3, st.axis]
+        H = float(S[st.parent, st.axis])
+        y = (T[ch, :3, 3] - T[st.parent, :3, 3]) @ e  # (n,) places along e
+        h = np.einsum("ni,ni->n", np.abs(np.einsum("nji,j->ni", T[ch, :3, :3], e)), S[ch])  # (n,) extents along e
+        gap = st.gap * H
+        new, placed = y.copy(), seen.copy()
+        for m in range(len(ch)):  # down: from a placed child above, or the first from the parent's face
+            if placed[m]:
+                continue
+            if m > 0 and placed[m - 1]:
+                new[m] = new[m - 1] - 0.5 * h[m - 1] - gap - 0.5 * h[m]
+                placed[m] = True
+            elif m == 0 and not seen.any():
+                new[0] = 0.5 * H - st.first_gap * H - 0.5 * h[0]
+                placed[0] = True
+        for m in range(len(ch) - 2, -1, -1):  # up: from a placed child below
+            if not placed[m] and placed[m + 1]:
+                new[m] = new[m + 1] + 0.5 * h[m + 1] + gap + 0.5 * h[m]
+                placed[m] = True
+        T[ch, :3, 3] += (new - y)[:, None] * e
+        moved[ch] = new - y
+    return T, moved

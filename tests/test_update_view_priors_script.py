@@ -1,0 +1,52 @@
+"""scripts/update_view_priors.py --stacks-only: the stacks of a model measured on its category's views."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "scripts"))
+
+from update_view_priors import main  # noqa: E402
+
+from ucope.data.generate import GenerateConfig, generate_dataset  # noqa: E402
+from ucope.priors import CategoryPriors  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def drawer_views(tmp_path_factory):
+    cfg = GenerateConfig(category="drawer", split="train", num=12, max_points=300, views_per_instance=2)
+    return generate_dataset(tmp_path_factory.mktemp("views") / "drawer", cfg, progress=False)
+
+
+def test_stacks_only_writes_the_drawers_stack_and_nothing_else(tmp_path, drawer_views, capsys):
+    model = tmp_path / "drawer.json"
+    shutil.copy(ROOT / "src/ucope/pretrained/drawer.json", model)
+    before = json.loads(model.read_text())
+    before["config"]["priors"]["stacks"] = []
+    model.write_text(json.dumps(before))
+    assert main(["--model", str(model), "--data", str(drawer_views), "--stacks-only"]) == 0
+    after = json.loads(model.read_text())
+    (st,) = CategoryPriors.from_dict(after["config"]["priors"]).stacks
+    assert (st.parent, st.axis, st.children) == (0, 1, (1, 2, 3))
+    assert after["info"]["stacks_from"]["num_samples"] == 12 and after["info"]["stacks_from"]["split"] == "train"
+    # every other prior and the model card stay
+    for key in ("parts", "joints", "radius_typical_m", "norm_scale_m"):
+        assert after["config"]["priors"][key] == before["config"]["priors"][key]
+    assert {k: v for k, v in after["info"].items() if k != "stacks_from"} == {
+        k: v for k, v in before["info"].items() if k != "stacks_from"
+    }
+    assert "stack [1, 2, 3] in part 0 along y" in capsys.readouterr().out
+
+
+def test_views_of_another_category_and_exclusive_flags_are_refused(tmp_path, drawer_views):
+    model = tmp_path / "laptop.json"
+    shutil.copy(ROOT / "src/ucope/pretrained/laptop.json", model)
+    assert main(["--model", str(model), "--data", str(drawer_views), "--stacks-only"]) == 2
+    assert main(["--model", str(model), "--data", str(drawer_views), "--stacks-only", "--extent-only"]) == 2
+    assert json.loads(model.read_text()) == json.loads((ROOT / "src/ucope/pretrained/laptop.json").read_text())
