@@ -28,10 +28,9 @@ set from the points (``fit_extents``), the root part's faces that the camera fac
 are (``anchor_faces``), each prismatic child is given the depth its parent says it has, its front kept
 (``carry_depths``), put where its parent always held it across the joint's axis (``place_children``), slid
 along it to where its points end (``slide_fronts``), and, where a view hides it, stacked against a seen sibling
-(``stack_children``). Last, every joint
-state is read off the final boxes and clamped into the category's limits (the child moved with it, the joint's
-score halved where clamped): a reported state always agrees with the reported part poses and lies inside the
-limits.
+(``stack_children``). Last, every joint state is read off the final boxes and clamped into the category's limits
+(the child moved with it, the joint's score halved where clamped): a reported state always agrees with the
+reported part poses and lies inside the limits.
 
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
 """
