@@ -717,7 +717,7 @@ def test_carrying_depths_names_bad_input():
     T, S, _ = _deep_drawer_scene(0)
     with pytest.raises(InputError, match="shapes"):
         carry_prismatic_depths(T[:1], S, pri)
-    with pytest.raises(InputError, match="shapes"):
+    with pytest.raises(InputError, match="measured"):
         carry_prismatic_depths(T, S, pri, np.zeros((3, 3), bool))
     with pytest.raises(InputError, match="positive"):
         carry_prismatic_depths(T, -S, pri)

@@ -844,6 +844,27 @@ one (a child voted plausibly keeps its own extent). The shipped dishwasher (fitt
 OOD views: 81 / 60 % success at 0, 82.5 / 61 % at 0.15, 82 / 57 % without carrying."""
 
 
+def _checked_sizes(
+    cam_from_part, size_m, measured, priors: CategoryPriors, max_spread: float = 0.0, min_change: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(T, S, measured)`` as float64 / bool copies after the checks the size carries and the stack share:
+    ``(K, 4, 4)`` finite poses, ``(K, 3)`` finite positive sizes and ``(K, 3)`` flags (``None``: none measured)
+    for the priors' ``K`` parts, ``max_spread`` and ``min_change`` ``>= 0``."""
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.array(size_m, dtype=np.float64)
+    K = priors.num_parts
+    done = np.zeros((K, 3), dtype=bool) if measured is None else np.array(measured, dtype=bool)
+    if T.shape != (K, 4, 4) or S.shape != (K, 3):
+        raise InputError(f"cam_from_part and size_m must have shapes ({K}, 4, 4) and ({K}, 3), got {T.shape} and {S.shape}")
+    if done.shape != (K, 3):
+        raise InputError(f"measured must have shape ({K}, 3), got {done.shape}")
+    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
+        raise InputError("cam_from_part must be finite and size_m finite and positive")
+    if not (max_spread >= 0 and min_change >= 0):
+        raise InputError(f"max_spread and min_change must be >= 0, got {max_spread!r}, {min_change!r}")
+    return T, S, done
+
+
 def carry_child_sizes(
     cam_from_part,
     size_m,
@@ -878,19 +899,8 @@ def carry_child_sizes(
         InputError: shapes that do not match the priors, a non-positive or non-finite size, negative
             ``max_spread`` or ``min_change``.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.array(size_m, dtype=np.float64)
-    done = np.array(measured, dtype=bool)
+    T, S, done = _checked_sizes(cam_from_part, size_m, measured, priors, max_spread, min_change)
     K = priors.num_parts
-    if T.shape != (K, 4, 4) or S.shape != (K, 3) or done.shape != (K, 3):
-        raise InputError(
-            f"cam_from_part, size_m and measured must have shapes ({K}, 4, 4), ({K}, 3), ({K}, 3), "
-            f"got {T.shape}, {S.shape}, {done.shape}"
-        )
-    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
-        raise InputError("cam_from_part must be finite and size_m finite and positive")
-    if not (max_spread >= 0 and min_change >= 0):
-        raise InputError(f"max_spread and min_change must be >= 0, got {max_spread!r}, {min_change!r}")
     carried = np.zeros((K, 3), dtype=bool)
     for jp in priors.joints:  # parents before children; a handful of joints
         if jp.child_size_ratio is None:
@@ -959,19 +969,7 @@ def carry_prismatic_depths(
         InputError: shapes that do not match the priors, non-finite poses or sizes, a non-positive size,
             a negative ``max_spread`` or ``min_change``.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.array(size_m, dtype=np.float64)
-    K = priors.num_parts
-    done = np.zeros((K, 3), dtype=bool) if measured is None else np.array(measured, dtype=bool)
-    if T.shape != (K, 4, 4) or S.shape != (K, 3) or done.shape != (K, 3):
-        raise InputError(
-            f"cam_from_part, size_m and measured must have shapes ({K}, 4, 4), ({K}, 3), ({K}, 3), "
-            f"got {T.shape}, {S.shape}, {done.shape}"
-        )
-    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
-        raise InputError("cam_from_part must be finite and size_m finite and positive")
-    if not (max_spread >= 0 and min_change >= 0):
-        raise InputError(f"max_spread and min_change must be >= 0, got {max_spread!r}, {min_change!r}")
+    T, S, done = _checked_sizes(cam_from_part, size_m, measured, priors, max_spread, min_change)
     carried = np.zeros(len(priors.joints), dtype=bool)
     for j, jp in enumerate(priors.joints):  # parents before children; a handful of joints
         if jp.type != JointType.PRISMATIC or jp.child_size_ratio is None:
@@ -1043,18 +1041,11 @@ def stack_hidden_children(
             labels that are not one integer per point, confidences that are not one finite value per label,
             a negative ``max_spread``.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.asarray(size_m, dtype=np.float64)
     K = priors.num_parts
-    if T.shape != (K, 4, 4) or S.shape != (K, 3):
-        raise InputError(f"cam_from_part must be ({K}, 4, 4) and size_m ({K}, 3), got {T.shape} and {S.shape}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
-        raise InputError("cam_from_part must be finite and size_m finite and positive")
+    T, S, _ = _checked_sizes(cam_from_part, size_m, None, priors, max_spread=max_spread)
     lab = np.asarray(labels)
     if lab.ndim != 1 or not np.issubdtype(lab.dtype, np.integer):
         raise InputError(f"labels must be one integer per point, got {lab.dtype} of shape {lab.shape}")
-    if not max_spread >= 0.0:
-        raise InputError(f"max_spread must be >= 0, got {max_spread!r}")
     if confidence is not None:
         lab = np.where(_checked_confidence(confidence, len(lab)) >= min_confidence, lab, -1)
     counts = np.bincount(lab[(lab >= 0) & (lab < K)], minlength=K)
