@@ -577,6 +577,8 @@ def test_the_drawer_step_flags_reach_the_estimator(tiny_run):
     assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).slide_fronts
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_slide_fronts=True))).slide_fronts
     assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).carry_depths
+    assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).hold_children
+    assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_hold_children=True))).hold_children
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_carry_depths=True))).carry_depths
     assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).stack_children
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_stack_children=True))).stack_children

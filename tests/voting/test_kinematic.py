@@ -657,6 +657,103 @@ def _deep_drawer_scene(seed):
     return T, S, R
 
 
+def _narrow_chest_scene(seed, n=400):
+    """A chest 1.2 m wide, 1.0 m tall, 0.5 m deep whose cabinet box was voted 0.7 m wide, 0.8 m tall (centred
+    0.1 m off to the right); the camera sees the cabinet's top board and two drawer fronts spanning its width."""
+    rng = np.random.default_rng(seed)
+    R = rotation_about_axis(rng.normal(size=3), rng.uniform(0, np.pi))
+    t = rng.normal(size=3) + [0, 0, 3]
+    top = np.c_[rng.uniform(-0.6, 0.6, n), np.full(n, 0.45), rng.uniform(-0.25, 0.25, n)]
+    fronts = np.c_[rng.uniform(-0.6, 0.6, 2 * n), rng.uniform(-0.48, 0.45, 2 * n), np.full(2 * n, 0.25)]
+    pts = np.r_[top, fronts] @ R.T + t
+    labels = np.r_[np.zeros(n, int), np.where(fronts[:, 1] > 0, 1, 2)]
+    T = np.tile(np.eye(4), (3, 1, 1))
+    T[:, :3, :3] = R
+    T[0, :3, 3] = t + R @ [0.1, 0.05, 0.0]
+    T[1, :3, 3] = t + R @ [0.1, 0.25, 0.0]
+    T[2, :3, 3] = t + R @ [0.1, -0.25, 0.0]
+    S = np.array([[0.7, 0.8, 0.5], [0.65, 0.45, 0.45], [0.65, 0.45, 0.45]])
+    return T, S, pts, labels, R, t
+
+
+def _two_drawer_priors(ratio=(0.97, 0.45, 0.95), kind="prismatic"):
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+
+    parts = tuple(PartPrior(n, "none", 0.8, (0.6, 0.5, 0.5)) for n in ("cabinet", "upper", "lower"))
+    joints = tuple(
+        JointPrior(kind, 0, k, (0, 0, 1), limits=(0.0, 0.3), child_size_ratio=ratio, child_size_spread=(0.05, 0.1, 0.05))
+        for k in (1, 2)
+    )
+    return CategoryPriors("chest2", parts, joints, norm_scale_m=0.5)
+
+
+def test_a_cabinet_voted_narrow_is_widened_to_hold_its_drawers_fronts():
+    """The cabinet's box widens left-right and up-down (across the slide) to the 1-99 % range of its own and its
+    drawers' points, its centre to that range's middle; along the slide (z) and in rotation it stays, and so do
+    the drawers. Checked against a plain per-axis reference."""
+    from ucope.voting import hold_prismatic_children
+
+    pri = _two_drawer_priors()
+    for seed in range(3):
+        T, S, pts, lab, R, t = _narrow_chest_scene(seed)
+        got_T, got_S, grown = hold_prismatic_children(T, S, pts, lab, pri)
+        local = (pts - T[0, :3, 3]) @ R  # every point is the cabinet's or a drawer's, all joined
+        lo = np.minimum(np.quantile(local, 0.01, axis=0), -0.5 * S[0])
+        hi = np.maximum(np.quantile(local, 0.99, axis=0), 0.5 * S[0])
+        assert grown.tolist() == [[True, True, False], [False] * 3, [False] * 3]
+        np.testing.assert_allclose(got_S[0], [hi[0] - lo[0], hi[1] - lo[1], 0.5])
+        np.testing.assert_allclose(got_T[0, :3, 3], T[0, :3, 3] + R @ [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.0])
+        assert 1.15 < got_S[0, 0] < 1.2 and abs(R[:, 0] @ (got_T[0, :3, 3] - t)) < 0.02  # about the true 1.2 m, centred
+        np.testing.assert_array_equal(got_T[1:], T[1:])
+        np.testing.assert_array_equal(got_S[1:], S[1:])
+        np.testing.assert_array_equal(got_T[0, :3, :3], T[0, :3, :3])
+
+
+def test_holding_leaves_what_it_should_alone():
+    """Nothing moves for: a box that already holds the points, revolute children, children larger than the parent
+    along an axis (that axis), stray points out of reach, points the segmentation doubts."""
+    from ucope.voting import hold_prismatic_children
+
+    T, S, pts, lab, R, t = _narrow_chest_scene(0)
+    wide = S.copy()
+    wide[0] = [1.5, 1.2, 0.5]
+    wide_T = T.copy()
+    wide_T[0, :3, 3] = t
+    for T2, S2, pri in ((wide_T, wide, _two_drawer_priors()), (T, S, _two_drawer_priors(kind="revolute"))):
+        got_T, got_S, grown = hold_prismatic_children(T2, S2, pts, lab, pri)
+        assert not grown.any() and np.array_equal(got_S, S2) and np.array_equal(got_T, T2)
+    _, got_S, grown = hold_prismatic_children(T, S, pts, lab, _two_drawer_priors(ratio=(1.02, 0.45, 0.95)))
+    assert grown[0].tolist() == [False, True, False] and got_S[0, 0] == S[0, 0]  # drawers wider: x is not the cabinet's
+    # 30 stray points 2 m to the side, labelled as a drawer: out of reach of the box's piece
+    stray = t + R @ [2.5, 0.0, 0.0] + np.random.default_rng(1).normal(scale=0.01, size=(30, 3))
+    _, with_stray, _ = hold_prismatic_children(T, S, np.r_[pts, stray], np.r_[lab, np.ones(30, int)], _two_drawer_priors())
+    _, plain, _ = hold_prismatic_children(T, S, pts, lab, _two_drawer_priors())
+    np.testing.assert_allclose(with_stray, plain, atol=0.02)
+    doubted = np.where(lab > 0, 0.3, 0.99)  # the fronts doubted: only the top board counts, 1.2 m wide
+    _, got_S, grown = hold_prismatic_children(T, S, pts, lab, _two_drawer_priors(), confidence=doubted)
+    assert grown[0].tolist() == [True, False, False] and got_S[0, 1] == S[0, 1]
+
+
+def test_holding_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.voting import hold_prismatic_children
+
+    pri = _two_drawer_priors()
+    T, S, pts, lab, _, _ = _narrow_chest_scene(0)
+    with pytest.raises(InputError, match="parts of the priors"):
+        hold_prismatic_children(T[:2], S[:2], pts, lab, pri)
+    with pytest.raises(InputError, match="finite"):
+        hold_prismatic_children(T, S, np.full_like(pts, np.nan), lab, pri)
+    with pytest.raises(InputError, match="labels"):
+        hold_prismatic_children(T, S, pts, lab[:5], pri)
+    with pytest.raises(InputError, match="quantile"):
+        hold_prismatic_children(T, S, pts, lab, pri, quantile=0.5)
+    with pytest.raises(InputError, match="connect_factor"):
+        hold_prismatic_children(T, S, pts, lab, pri, connect_factor=0.0)
+    with pytest.raises(InputError, match="confidence"):
+        hold_prismatic_children(T, S, pts, lab, pri, confidence=np.ones(3))
+
+
 def test_a_drawer_voted_too_deep_takes_its_cabinets_depth_and_keeps_its_front():
     """The drawer's depth becomes 0.95 x the cabinet's 0.5 m; its front face (at +z, where it is pulled out)
     stays where voting put it, so its centre moves 6.25 cm out; rotation, width, height and the cabinet stay.

@@ -592,6 +592,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "keeping the highest-scored (default: the model's own; docs/results.md)",
     )
     p.add_argument(
+        "--no-hold-children",
+        action="store_true",
+        help="keep a cabinet's box as voting and the fits made it (default: widened across the drawers' slides to "
+        "hold the drawers' points too; docs/voting.md)",
+    )
+    p.add_argument(
         "--no-carry-depths",
         action="store_true",
         help="keep a drawer as deep as voting made it (default: as deep as its cabinet says, its front kept; " "docs/voting.md)",

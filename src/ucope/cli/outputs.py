@@ -206,6 +206,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         scale_search=not getattr(args, "no_scale_search", False),
         wide_scale_search=getattr(args, "wide_scale_search", None),
         restarts=getattr(args, "restarts", None),
+        hold_children=not getattr(args, "no_hold_children", False),
         carry_depths=not getattr(args, "no_carry_depths", False),
         place_children=not getattr(args, "no_place_children", False),
         slide_fronts=not getattr(args, "no_slide_fronts", False),

@@ -25,7 +25,8 @@ the whole is repeated on the cloud normalised to the model's typical size (``sca
 1.25x it with ``wide_scale_search``) and the highest-scored estimate stands. In every run, after the part
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
 set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
-are (``anchor_faces``), each prismatic child is given the depth its parent says it has, its front kept
+are (``anchor_faces``), a parent's box is widened across its prismatic children's slides to hold their points
+(``hold_children``), each prismatic child is given the depth its parent says it has, its front kept
 (``carry_depths``), put where its parent always held it across the joint's axis (``place_children``), slid
 along it to where its points end (``slide_fronts``), and, where a view hides it, stacked against a seen sibling
 (``stack_children``). Last, every joint state is read off the final boxes and clamped into the category's limits
@@ -63,6 +64,7 @@ from ..voting import (
     carry_prismatic_depths,
     fit_seen_extents,
     grow_to_points,
+    hold_prismatic_children,
     place_prismatic_children,
     place_weak_parts,
     regressed_object,
@@ -349,6 +351,9 @@ class Estimator:
             from the camera and its own points lie on it (:func:`ucope.voting.place_weak_parts`), after the
             box steps, before the joint states are read off the boxes. Off here; :meth:`load` takes the
             model's default (on where it measured better: docs/results.md).
+        hold_children: widen a parent's box (a cabinet) across its prismatic children's slides until it holds their
+            points as well as its own (:func:`ucope.voting.hold_prismatic_children`), after the box fits and
+            before ``carry_depths``; on by default, measured in docs/results.md.
         carry_depths: give each prismatic child (a drawer) the extent along its joint's axis that its parent's box
             and the training views' size ratio say it has, its leading face kept
             (:func:`ucope.voting.carry_prismatic_depths`), after the box fits and before ``place_children``. Acts
@@ -405,6 +410,7 @@ class Estimator:
         anchor_faces: bool = False,
         align_faces: bool = False,
         free_space: bool = False,
+        hold_children: bool = True,
         carry_depths: bool = True,
         place_children: bool = True,
         slide_fronts: bool = True,
@@ -457,6 +463,7 @@ class Estimator:
         self.anchor_faces = bool(anchor_faces)
         self.align_faces = bool(align_faces)
         self.free_space = bool(free_space)
+        self.hold_children = bool(hold_children)
         self.carry_depths = bool(carry_depths)
         self.place_children = bool(place_children)
         self.slide_fronts = bool(slide_fronts)
@@ -850,6 +857,11 @@ class Estimator:
             v = dict(v)
             v["cam_from_part"], _ = anchor_faced_faces(
                 v["cam_from_part"], v["size_m"], p_net, labels, self.faced_gap, parts=(0,), keep=fitted, confidence=object_conf
+            )
+        if self.hold_children and self.priors.num_joints > 0:  # after the fits, which may have narrowed the parent
+            v = dict(v)
+            v["cam_from_part"], v["size_m"], _ = hold_prismatic_children(
+                v["cam_from_part"], v["size_m"], p_net, part_labels, self.priors, confidence=object_conf
             )
         if self.carry_depths and self.priors.num_joints > 0:  # after the fits: the parent's extents as they stand
             v = dict(v)

@@ -409,6 +409,7 @@ def evaluate(
             "scale_search": getattr(estimator, "scale_search", False),
             "wide_scale_search": getattr(estimator, "wide_scale_search", False),
             "restarts": getattr(estimator, "restarts", 0),
+            "hold_children": getattr(estimator, "hold_children", False),
             "carry_depths": getattr(estimator, "carry_depths", False),
             "place_children": getattr(estimator, "place_children", False),
             "slide_fronts": getattr(estimator, "slide_fronts", False),

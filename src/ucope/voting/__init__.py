@@ -19,6 +19,7 @@ measured accuracy.
 * :func:`turn_upright`: a part of a rigid object voted upside down, turned over by the half turn its points fit
   best, its centre placed from its points.
 * :func:`carry_child_sizes`: a child's extents carried from its parent's measured ones where their ratio is fixed.
+* :func:`hold_prismatic_children`: a cabinet's box widened across the slides to hold its drawers' points too.
 * :func:`carry_prismatic_depths`: a drawer as deep as its cabinet says, its front kept.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
 * :func:`slide_to_fronts`: a drawer slid along its slide until its front meets its points.
@@ -49,6 +50,7 @@ from .kinematic import (
     carry_child_sizes,
     carry_prismatic_depths,
     carry_upright,
+    hold_prismatic_children,
     kinematic_refine,
     place_prismatic_children,
     resolve_joint_flips,
@@ -90,6 +92,7 @@ __all__ = [
     "turn_upright",
     "carry_child_sizes",
     "carry_prismatic_depths",
+    "hold_prismatic_children",
     "upright_angles_deg",
     "place_prismatic_children",
     "slide_to_fronts",

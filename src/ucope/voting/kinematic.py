@@ -49,7 +49,16 @@ from ..geometry.kinematics import joint_state_from_poses, revolute_angle
 from ..geometry.transforms import closest_rotation, rotation_about_axis
 from ..priors import CategoryPriors
 from ..vocab import JointType
-from .extent import _checked, _checked_confidence, connected_pieces
+from .extent import (
+    GROW_CONNECT_FACTOR,
+    GROW_MIN_CONFIDENCE,
+    GROW_MIN_POINTS,
+    GROW_QUANTILE,
+    _checked,
+    _checked_confidence,
+    connected_pieces,
+    joined_to_box,
+)
 
 __all__ = [
     "kinematic_refine",
@@ -71,6 +80,7 @@ __all__ = [
     "carry_child_sizes",
     "SIZE_MAX_SPREAD",
     "SIZE_MIN_CHANGE",
+    "hold_prismatic_children",
     "carry_prismatic_depths",
     "DEPTH_MAX_SPREAD",
     "DEPTH_MIN_CHANGE",
@@ -917,6 +927,90 @@ def carry_child_sizes(
             foot = T[p, :3, :3] @ (np.asarray(jp.pivot_in_parent) * S[p]) + T[p, :3, 3]
             T[c, :3, 3] = foot - T[c, :3, :3] @ (np.asarray(jp.pivot_in_child) * S[c])
     return T, S, carried
+
+
+def hold_prismatic_children(
+    cam_from_part,
+    size_m,
+    points,
+    labels,
+    priors: CategoryPriors,
+    confidence=None,
+    quantile: float = GROW_QUANTILE,
+    min_points: int = GROW_MIN_POINTS,
+    connect_factor: float = GROW_CONNECT_FACTOR,
+    min_confidence: float = GROW_MIN_CONFIDENCE,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Widen a parent's box across its prismatic children's slides until it holds their points as well as its own.
+
+    A drawer slides in and out along its cabinet's z; left-right and up-down it stays inside the cabinet (every
+    training drawer was at most as wide and as tall as its cabinet: ``JointPrior.child_size_ratio`` at most 1
+    along those axes). The drawer fronts span a chest's whole width while the cabinet's own points (its top, its
+    sides) may not, and the segmentation gives the fronts to the drawers: a sideboard wider than any the training
+    had (OOD split) got its cabinet voted 0.56-0.8x as wide and its drawers centred on that. For each parent with
+    prismatic children, along each of its box axes across every such child's slide where each child's size ratio
+    is at most 1, the box is widened (never narrowed) until it holds the ``quantile`` to ``1 - quantile`` range
+    of the points segmented as the parent or one of those children (points sure to be the object, ``confidence``
+    at least ``min_confidence``, in one connected piece with a point inside the parent's box,
+    :func:`ucope.voting.extent.joined_to_box`), its centre moved to the middle of the widened range. Rotations
+    and the children are left as they are (the caller puts the children back in their place,
+    :func:`place_prismatic_children`).
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame or any other, metres).
+        size_m: ``(K, 3)`` box extents (metres, > 0).
+        points: ``(P, 3)`` the cloud (same frame, metres).
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        priors: the category's priors (joint tree, types, canonical axes, size ratios).
+        confidence: optional ``(P,)`` per point, the probability that it is the object.
+        quantile: in ``[0, 0.5)``; min_points: parents with fewer such points stay; connect_factor: ``> 0``.
+
+    Returns:
+        ``(cam_from_part, size_m, grown)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays and ``(K, 3)`` bool,
+        which extents were widened.
+
+    Raises:
+        InputError: shapes that do not match the priors, non-finite poses, sizes or points, a non-positive size,
+            ``quantile`` outside ``[0, 0.5)``, a ``connect_factor`` that is not positive, or confidences that are
+            not one finite value per point.
+    """
+    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
+    K = priors.num_parts
+    if len(T) != K:
+        raise InputError(f"cam_from_part must hold the {K} parts of the priors, got {len(T)}")
+    if not 0.0 <= quantile < 0.5:
+        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    if not connect_factor > 0.0:
+        raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
+    if confidence is not None:
+        lab = np.where(_checked_confidence(confidence, len(pts)) >= min_confidence, lab, -1)
+    grown = np.zeros((K, 3), dtype=bool)
+    for p in range(K):  # a handful of parts; the point work is vectorised
+        kids = [jp for jp in priors.joints if jp.parent == p and jp.type == JointType.PRISMATIC]
+        if not kids or any(jp.child_size_ratio is None for jp in kids):
+            continue
+        axes = np.ones(3, dtype=bool)
+        for jp in kids:  # across every slide, where no child was ever larger than its parent
+            axes &= (np.abs(jp.axis) < 1e-6) & (np.asarray(jp.child_size_ratio) <= 1.0)
+        if not axes.any():
+            continue
+        own = np.isin(lab, [p] + [jp.child for jp in kids])
+        if np.count_nonzero(own) < max(int(min_points), 1):
+            continue
+        R, t = T[p, :3, :3], T[p, :3, 3]
+        q = (pts[own] - t) @ R  # the points in the parent's frame
+        q = q[joined_to_box(q, 0.5 * S[p], connect_factor)]
+        if len(q) < max(int(min_points), 1):
+            continue
+        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+        lo, hi = np.minimum(lo, -0.5 * S[p]), np.maximum(hi, 0.5 * S[p])
+        wider = axes & (hi - lo > S[p] * (1.0 + 1e-9))
+        if not wider.any():
+            continue
+        S[p] = np.where(wider, hi - lo, S[p])
+        T[p, :3, 3] = t + R @ np.where(wider, 0.5 * (lo + hi), 0.0)
+        grown[p] = wider
+    return T, S, grown
 
 
 DEPTH_MAX_SPREAD = 0.1
