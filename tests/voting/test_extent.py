@@ -389,3 +389,40 @@ def test_anchor_bad_input_is_named():
         anchor_faced_faces(T, S, np.full((5, 3), np.nan), lab, table)
     with pytest.raises(InputError, match="confidence"):
         anchor_faced_faces(T, S, pts, lab, table, confidence=np.ones(2))
+
+
+def _plain_pieces(points, factor):
+    """Plain reference: the full distance matrix, the median nearest-neighbour distance, and a flood fill."""
+    d = np.linalg.norm(points[:, None] - points[None], axis=-1)
+    np.fill_diagonal(d, np.inf)
+    radius = factor * np.median(d.min(1))
+    joined = d <= radius
+    piece = np.full(len(points), -1)
+    for start in range(len(points)):
+        if piece[start] >= 0:
+            continue
+        piece[start] = start
+        todo = [start]
+        while todo:
+            i = todo.pop()
+            for j in np.flatnonzero(joined[i] & (piece < 0)):
+                piece[j] = start
+                todo.append(j)
+    return piece
+
+
+def test_connected_pieces_match_a_plain_flood_fill():
+    """Clusters of points at random gaps, some closer than the radius, some further: the same partition as a
+    flood fill over the full distance matrix; duplicates and single points too."""
+    from ucope.voting.extent import connected_pieces
+
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        centres = rng.uniform(-1, 1, size=(6, 3))
+        pts = np.concatenate([c + rng.normal(scale=0.03, size=(rng.integers(5, 60), 3)) for c in centres])
+        for factor in (2.0, 8.0):
+            got, ref = connected_pieces(pts, factor), _plain_pieces(pts, factor)
+            pairs = got[:, None] == got[None]
+            np.testing.assert_array_equal(pairs, ref[:, None] == ref[None])
+    assert connected_pieces(np.zeros((1, 3)), 8.0).tolist() == [0]
+    assert len(set(connected_pieces(np.zeros((5, 3)), 8.0).tolist())) == 1  # duplicates are one piece
