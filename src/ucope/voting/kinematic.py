@@ -566,6 +566,24 @@ FRONT_MIN_CONFIDENCE = 0.5
 not count (as ``ucope.voting.extent.FIT_MIN_CONFIDENCE``)."""
 
 
+def _checked_cloud(
+    cam_from_part, size_m, points, labels, priors: CategoryPriors, quantile, connect_factor, confidence, min_confidence
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(T, S, points, labels)`` after the checks the slide and the hold share (:func:`ucope.voting.extent._checked`,
+    the priors' part count, ``quantile`` in ``[0, 0.5)``, a positive ``connect_factor``, one confidence per point),
+    the labels of points below ``min_confidence`` set to -1."""
+    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
+    if len(T) != priors.num_parts:
+        raise InputError(f"cam_from_part must hold the {priors.num_parts} parts of the priors, got {len(T)}")
+    if not 0.0 <= quantile < 0.5:
+        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    if not connect_factor > 0.0:
+        raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
+    if confidence is not None:
+        lab = np.where(_checked_confidence(confidence, len(pts)) >= min_confidence, lab, -1)
+    return T, S, pts, lab
+
+
 def slide_to_fronts(
     cam_from_part,
     size_m,
@@ -616,17 +634,11 @@ def slide_to_fronts(
             size, ``quantile`` outside ``[0, 0.5)``, a negative ``min_shift``, a ``connect_factor`` that is not
             positive, or confidences that are not one finite value per point.
     """
-    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
-    if len(T) != priors.num_parts:
-        raise InputError(f"cam_from_part must hold the {priors.num_parts} parts of the priors, got {len(T)}")
-    if not 0.0 <= quantile < 0.5:
-        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
     if not min_shift >= 0.0:
         raise InputError(f"min_shift must be >= 0, got {min_shift!r}")
-    if not connect_factor > 0.0:
-        raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
-    if confidence is not None:
-        lab = np.where(_checked_confidence(confidence, len(pts)) >= min_confidence, lab, -1)
+    T, S, pts, lab = _checked_cloud(
+        cam_from_part, size_m, points, labels, priors, quantile, connect_factor, confidence, min_confidence
+    )
     moved = np.zeros(len(priors.joints))
     for j, jp in enumerate(priors.joints):  # a handful of joints; the point work is vectorised
         if jp.type != JointType.PRISMATIC:
@@ -974,16 +986,10 @@ def hold_prismatic_children(
             ``quantile`` outside ``[0, 0.5)``, a ``connect_factor`` that is not positive, or confidences that are
             not one finite value per point.
     """
-    T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
+    T, S, pts, lab = _checked_cloud(
+        cam_from_part, size_m, points, labels, priors, quantile, connect_factor, confidence, min_confidence
+    )
     K = priors.num_parts
-    if len(T) != K:
-        raise InputError(f"cam_from_part must hold the {K} parts of the priors, got {len(T)}")
-    if not 0.0 <= quantile < 0.5:
-        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
-    if not connect_factor > 0.0:
-        raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
-    if confidence is not None:
-        lab = np.where(_checked_confidence(confidence, len(pts)) >= min_confidence, lab, -1)
     grown = np.zeros((K, 3), dtype=bool)
     for p in range(K):  # a handful of parts; the point work is vectorised
         kids = [jp for jp in priors.joints if jp.parent == p and jp.type == JointType.PRISMATIC]
