@@ -961,8 +961,8 @@ def hold_prismatic_children(
     may not, and the segmentation gives the fronts to the drawers: a sideboard wider than any the training had (OOD
     split) got its cabinet voted 0.56-0.91x as wide in 10 of 11 views looked at, and its drawers centred on that.
     For each parent with prismatic children, along each of its box axes across every such child's slide where each
-    child's size ratio is at most 1, the box is widened (never narrowed) until it holds the ``quantile`` to ``1 -
-    quantile`` range of the points segmented as the parent or one of those children (points sure to be the object,
+    child's size ratio is at most 1, the box is widened (never narrowed) until it holds the ``quantile`` to
+    ``1 - quantile`` range of the points segmented as the parent or one of those children (points sure to be the object,
     ``confidence`` at least ``min_confidence``, in one connected piece with a point inside the parent's box,
     :func:`ucope.voting.extent.joined_to_box`), its centre moved to the middle of the widened range. Rotations and
     the children are left as they are (the caller puts the children back in their place,
