@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from ucope.data.dataset import load_dataset  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
-from ucope.priors import JointPrior, measure_priors, stack_statistics  # noqa: E402
+from ucope.priors import CategoryPriors, measure_priors, stack_statistics  # noqa: E402
 
 PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg", "seen_extent", "faced_gap")
 JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child", "child_size_ratio", "child_size_spread")
@@ -70,8 +70,7 @@ def main(argv=None) -> int:
         picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), args.num)).round().astype(np.int64))]
         T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
         S = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
-        joints = [JointPrior(**{k: j[k] for k in ("type", "parent", "child", "axis_in_parent")}) for j in pri["joints"]]
-        pri["stacks"] = [st.to_dict() for st in stack_statistics(T, S, joints)]
+        pri["stacks"] = [st.to_dict() for st in stack_statistics(T, S, CategoryPriors.from_dict(pri).joints)]
         meta.setdefault("info", {})["stacks_from"] = {"data": Path(args.data).name, **made, "num_samples": len(picked)}
         atomic_write_json(args.model, meta)
         for st in pri["stacks"]:
