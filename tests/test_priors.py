@@ -302,3 +302,8 @@ def test_bad_stacks_are_refused():
     hinged = (JointPrior("prismatic", 0, 1, (0, 0, 1)), JointPrior("revolute", 0, 2, (1, 0, 0)))
     with pytest.raises(InputError, match="prismatic children"):
         CategoryPriors("toy", parts, hinged, stacks=(StackPrior(**ok),))
+    # a model file whose stack entry is corrupt: a clear error, not a TypeError from deep inside
+    form = CategoryPriors("toy", parts, hinged).to_dict()
+    for entry in ({"parent": 0, "axis": 1}, {**ok, "colour": "red"}, {**ok, "children": [1]}):
+        with pytest.raises(InputError, match="malformed category priors|two or more"):
+            CategoryPriors.from_dict({**form, "stacks": [entry]})
