@@ -621,6 +621,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "cabinet's top; docs/voting.md)",
     )
     p.add_argument(
+        "--no-turn-children",
+        action="store_true",
+        help="keep a door's or a lid's angle as voting made it (default: turned about its hinge to lie along its "
+        "points; docs/voting.md)",
+    )
+    p.add_argument(
         "--no-rescale",
         action="store_true",
         help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",

@@ -211,6 +211,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         place_children=not getattr(args, "no_place_children", False),
         slide_fronts=not getattr(args, "no_slide_fronts", False),
         stack_children=not getattr(args, "no_stack_children", False),
+        turn_children=not getattr(args, "no_turn_children", False),
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,

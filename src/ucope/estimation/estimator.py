@@ -29,7 +29,8 @@ are (``anchor_faces``), a parent's box is widened across its prismatic children'
 (``hold_children``), each prismatic child is given the depth its parent says it has, its front kept
 (``carry_depths``), put where its parent always held it across the joint's axis (``place_children``), slid
 along it to where its points end (``slide_fronts``), and, where a view hides it, stacked against a seen sibling
-(``stack_children``). Last, every joint state is read off the final boxes and clamped into the category's limits
+(``stack_children``); each thin revolute child is turned about its joint's axis to lie along its own points
+(``turn_children``). Last, every joint state is read off the final boxes and clamped into the category's limits
 (the child moved with it, the joint's score halved where clamped): a reported state always agrees with the
 reported part poses and lies inside the limits.
 
@@ -71,6 +72,7 @@ from ..voting import (
     settle_joint_states,
     slide_to_fronts,
     stack_hidden_children,
+    turn_thin_children,
     vote_object,
 )
 from .confidence import Calibration, part_features
@@ -370,6 +372,10 @@ class Estimator:
             shows fewer than ``STACK_MIN_POINTS`` points against its nearest seen sibling, or under its parent's
             face (:func:`ucope.voting.stack_hidden_children`), after ``slide_fronts``. Acts only on models whose
             priors hold stacks; on by default, measured in docs/results.md.
+        turn_children: turn each thin revolute child (a dishwasher door, a laptop lid) about its joint's axis until
+            its box lies along its own points, seen along that axis (:func:`ucope.voting.turn_thin_children`),
+            after the other box steps and before the joint states are read off the boxes; on by default, measured
+            in docs/results.md.
         restarts: up to this many further estimates, each from another draw of the network's points and of
             the pairs (at the scale the estimate so far was made at), while the best object score so far is
             below :data:`RESTART_BELOW`; the highest-scored estimate stands (ties: the earlier). One draw of
@@ -415,6 +421,7 @@ class Estimator:
         place_children: bool = True,
         slide_fronts: bool = True,
         stack_children: bool = True,
+        turn_children: bool = True,
         restarts: int = 0,
     ):
         if not isinstance(model, UCOPENet):
@@ -468,6 +475,7 @@ class Estimator:
         self.place_children = bool(place_children)
         self.slide_fronts = bool(slide_fronts)
         self.stack_children = bool(stack_children)
+        self.turn_children = bool(turn_children)
         self.restarts = int(restarts)
 
     # ------------------------------------------------------------------------------------- loading
@@ -895,6 +903,18 @@ class Estimator:
                 part_labels,
                 self.priors,
                 camera=centre * (1.0 - scale),  # the cloud was scaled about centre (the roll turns about the camera)
+            )
+        if self.turn_children and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
+            v = dict(v)
+            v["cam_from_part"], _ = turn_thin_children(
+                v["cam_from_part"],
+                v["size_m"],
+                v["joint_axis"],
+                p_net,
+                part_labels,
+                self.priors,
+                confidence=object_conf,
+                camera=centre * (1.0 - scale),
             )
         if self.priors.num_joints > 0:  # the states of the boxes as they now stand, inside the limits
             v = dict(v)

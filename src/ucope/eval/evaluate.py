@@ -414,6 +414,7 @@ def evaluate(
             "place_children": getattr(estimator, "place_children", False),
             "slide_fronts": getattr(estimator, "slide_fronts", False),
             "stack_children": getattr(estimator, "stack_children", False),
+            "turn_children": getattr(estimator, "turn_children", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "grow_boxes": getattr(estimator, "grow_boxes", False),

@@ -24,6 +24,7 @@ measured accuracy.
 * :func:`place_prismatic_children`: a drawer put where its cabinet always holds it across its slide.
 * :func:`slide_to_fronts`: a drawer slid along its slide until its front meets its points.
 * :func:`stack_hidden_children`: a hidden drawer put against a seen one in its stack (or under its cabinet's top).
+* :func:`turn_thin_children`: a thin revolute child (a door, a lid) turned about its joint to lie along its points.
 * :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
@@ -58,6 +59,7 @@ from .kinematic import (
     settle_joint_states,
     slide_to_fronts,
     stack_hidden_children,
+    turn_thin_children,
     turn_upright,
     upright_angles_deg,
 )
@@ -97,6 +99,7 @@ __all__ = [
     "place_prismatic_children",
     "slide_to_fronts",
     "stack_hidden_children",
+    "turn_thin_children",
     "settle_joint_states",
     "vote_object",
     "part_fit",
