@@ -1041,6 +1041,7 @@ def test_turning_leaves_few_short_or_round_point_sets_thick_children_and_slides_
         "few points": (pts[:40], lab[:40], S, pri),
         "a short strip": (pts[np.abs((pts - T[1, :3, 3]) @ T[1, :3, 1]) < 0.05], None, S, pri),
         "a thick child": (pts, lab, np.array([[0.6, 0.8, 0.6], [0.6, 0.7, 0.4]]), pri),
+        "a blade, thin along its hinge": (pts, lab, np.array([[0.6, 0.8, 0.6], [0.02, 0.7, 0.05]]), pri),
         "a slide": (pts, lab, S, _door_priors().__class__(**{**_door_priors().__dict__, "joints": (
             _door_priors().joints[0].__class__("prismatic", 0, 1, (0, 0, 1)),)})),
     }  # fmt: skip
