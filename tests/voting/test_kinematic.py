@@ -1049,6 +1049,9 @@ def test_turning_leaves_few_short_or_round_point_sets_thick_children_and_slides_
         lb = np.ones(len(p), dtype=np.int64) if lb is None else lb
         got, turned = turn_thin_children(voted, size, axis[None], p, lb, priors)
         assert not turned.any() and np.array_equal(got, voted), name
+    for lb in (np.zeros(len(pts), dtype=np.int64), np.full(len(pts), -1)):  # no point of the door
+        got, turned = turn_thin_children(voted, S, axis[None], pts, lb, pri)
+        assert not turned.any() and np.array_equal(got, voted)
     # points seen edge-on along the hinge form a blob, not a line: a door seen from straight above
     rng = np.random.default_rng(1)
     blob = T[1, :3, 3] + rng.normal(0.0, 0.05, (300, 3))
@@ -1092,5 +1095,7 @@ def test_turning_names_bad_input():
         turn_thin_children(voted, S, axis[None], pts, lab, pri, check_tol=-1.0)
     with pytest.raises(InputError, match="confidence"):
         turn_thin_children(voted, S, axis[None], pts, lab, pri, confidence=np.ones(3))
+    with pytest.raises(InputError, match="min_confidence"):
+        turn_thin_children(voted, S, axis[None], pts, lab, pri, min_confidence=1.5)
     with pytest.raises(InputError, match="finite"):
         turn_thin_children(voted, S, axis[None], np.full_like(pts, np.nan), lab, pri)

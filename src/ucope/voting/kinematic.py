@@ -30,6 +30,9 @@ the part votes; each model carries its measured default (docs/voting.md).
 The flip checks (:func:`resolve_joint_flips`, :func:`resolve_shape_flips`) read the joint limits, the
 part placements and the shape templates of the model's :class:`ucope.priors.CategoryPriors`.
 
+:func:`turn_thin_children` turns a door, a lid or a temple (a slab hinged along an edge) about its joint's axis to
+the direction its own points take seen along that axis, its face put on them.
+
 :func:`carry_upright` re-places a part that voting tilted far outside the upright the training views
 kept it in (a laptop base hidden behind its lid, whose few visible points voted it on end) from a
 neighbour through their joint: the joint state within the limits that brings the part nearest its
@@ -1296,6 +1299,8 @@ def turn_thin_children(
         raise InputError(f"thin_ratio must lie in (0, 1], got {thin_ratio!r}")
     if int(min_points) < 3 or not min_elongation >= 1.0:
         raise InputError(f"min_points must be >= 3 and min_elongation >= 1, got {min_points!r} and {min_elongation!r}")
+    if not 0.0 <= min_confidence <= 1.0:
+        raise InputError(f"min_confidence must lie in [0, 1], got {min_confidence!r}")
     if not (min_cover >= 0.0 and min_turn_deg >= 0.0 and join_margin >= 0.0 and check_tol >= 0.0):
         raise InputError(
             "min_cover, min_turn_deg, join_margin and check_tol must be >= 0, got "
