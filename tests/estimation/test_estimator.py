@@ -592,6 +592,8 @@ def test_the_drawer_step_flags_reach_the_estimator(tiny_run):
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_stack_children=True))).stack_children
     assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).turn_children
     assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_turn_children=True))).turn_children
+    assert Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base))).flip_fronts
+    assert not Estimator.load(tiny_run, **estimator_options(argparse.Namespace(**base, no_flip_fronts=True))).flip_fronts
 
 
 def test_the_shipped_drawer_puts_its_drawers_in_the_middle_of_the_cabinet():

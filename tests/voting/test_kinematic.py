@@ -867,7 +867,8 @@ def test_hidden_drawers_are_stacked_under_a_seen_one_above_them():
     pri = _chest()
     for seed in range(3):
         T, S, R = _chest_scene(seed)
-        got, moved = stack_hidden_children(T, S, _labels([500, 200, 3, 0]), pri)
+        got, S2, moved = stack_hidden_children(T, S, _labels([500, 200, 3, 0]), pri)
+        np.testing.assert_array_equal(S2, S)  # the chest's priors hold no size ratios
         y = _local_y(got, R)
         assert y[1] == pytest.approx(0.55)
         assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125)
@@ -894,7 +895,7 @@ def test_hidden_drawers_go_on_a_seen_one_below_or_under_the_cabinets_top():
     # the middle one hidden between two seen ones hangs under the top one
     y = _local_y(stack_hidden_children(T, S, _labels([500, 40, 0, 40]), pri)[0], R)
     assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125) and y[3] == pytest.approx(0.0, abs=1e-12)
-    same, moved = stack_hidden_children(T, S, _labels([500, 40, 40, 40]), pri)
+    same, _, moved = stack_hidden_children(T, S, _labels([500, 40, 40, 40]), pri)
     assert np.array_equal(same, T) and not moved.any()
 
 
@@ -906,16 +907,43 @@ def test_stacking_leaves_loose_stacks_doubted_points_and_stackless_priors_alone(
     for pri in (_chest(first_gap_spread=0.2), _chest(gap_spread=0.15), _cabinet_priors()):
         if pri.num_parts != 4:  # a category without stacks
             T2, S2 = T[:2], S[:2]
-            same, moved = stack_hidden_children(T2, S2, np.zeros(10, int), pri)
+            same, _, moved = stack_hidden_children(T2, S2, np.zeros(10, int), pri)
             assert np.array_equal(same, T2) and not moved.any()
             continue
-        same, moved = stack_hidden_children(T, S, lab, pri)
+        same, _, moved = stack_hidden_children(T, S, lab, pri)
         assert np.array_equal(same, T) and not moved.any()
     # the middle drawer's 40 points doubted by the segmentation (confidence 0.3): it counts as hidden
     lab = _labels([500, 40, 40, 40])
     conf = np.where(lab == 2, 0.3, 0.99)
     y = _local_y(stack_hidden_children(T, S, lab, _chest(), confidence=conf)[0], R)
     assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125)
+
+
+def _sized_chest():
+    """:func:`_chest` with size ratios: each drawer 0.95 of the cabinet's width, 0.25 of its height, 0.9 of its depth."""
+    from dataclasses import replace
+
+    pri = _chest()
+    joints = tuple(replace(jp, child_size_ratio=(0.95, 0.25, 0.9), child_size_spread=(0.05, 0.15, 0.05)) for jp in pri.joints)
+    return replace(pri, joints=joints)
+
+
+def test_hidden_drawers_take_their_width_and_height_from_the_cabinet_before_they_are_stacked():
+    """With size ratios in the priors, the hidden middle and bottom drawers become 0.95 x 0.6 m wide and 0.25 x 1 m
+    tall (their depth, along the slide, stays), then hang under the seen top drawer by those heights; the seen one
+    keeps its size. Without ``size_from_parent`` the voted sizes stay."""
+    from ucope.voting import stack_hidden_children
+
+    pri = _sized_chest()
+    T, S, R = _chest_scene(2)
+    got, S2, _ = stack_hidden_children(T, S, _labels([500, 200, 3, 0]), pri)
+    np.testing.assert_array_equal(S2[:2], S[:2])
+    np.testing.assert_allclose(S2[2:], [[0.57, 0.25, 0.45], [0.57, 0.25, 0.45]])
+    y = _local_y(got, R)
+    assert y[2] == pytest.approx(0.55 - 0.1 - 0.005 - 0.125)
+    assert y[3] == pytest.approx(y[2] - 0.125 - 0.005 - 0.125)
+    _, S3, _ = stack_hidden_children(T, S, _labels([500, 200, 3, 0]), pri, size_from_parent=False)
+    np.testing.assert_array_equal(S3, S)
 
 
 def test_stacking_names_bad_input():
@@ -1099,3 +1127,115 @@ def test_turning_names_bad_input():
         turn_thin_children(voted, S, axis[None], pts, lab, pri, min_confidence=1.5)
     with pytest.raises(InputError, match="finite"):
         turn_thin_children(voted, S, axis[None], np.full_like(pts, np.nan), lab, pri)
+
+
+def _turned_round(T, u, piv, b):
+    """The whole object turned by a half turn about the cabinet's box axis ``b`` through its centre."""
+    Rf = rotation_about_axis(T[0, :3, b], np.pi)
+    c = T[0, :3, 3]
+    T2 = T.copy()
+    T2[:, :3, :3] = Rf @ T[:, :3, :3]
+    T2[:, :3, 3] = c + (T[:, :3, 3] - c) @ Rf.T
+    return T2, u @ Rf.T, c + (piv - c) @ Rf.T
+
+
+def test_a_cabinet_turned_round_is_turned_back_by_its_drawers():
+    """Real drawer views at their true poses and labels, the camera at the origin: nothing is turned. The whole
+    object turned round about the cabinet's upright axis is turned back exactly wherever the drawers decide it:
+    their points behind the cabinet's centre (views that show them), or a front facing the camera with no drawer
+    on it (views from behind that hide them). Both kinds occur among the views."""
+    from ucope.voting import resolve_front_flips
+
+    S = _samples("drawer", "test", 16)
+    pri = measured_priors("drawer", S)
+    assert pri.parts[0].upright_axis == 1
+    kinds = {"shown": 0, "hidden": 0}
+    for s in S:
+        T, pts, lab = np.asarray(s["cam_from_part"]), np.asarray(s["points"], np.float64), np.asarray(s["part_labels"])
+        u, piv = np.asarray(s["joint_axis"]), np.asarray(s["joint_pivot"])
+        same, u2, piv2, flipped = resolve_front_flips(T, u, piv, pts, lab, pri)
+        assert not flipped.any()
+        np.testing.assert_array_equal(same, T)
+        np.testing.assert_array_equal(u2, u)
+        bad, ub, pb = _turned_round(T, u, piv, 1)
+        fixed, uf, pf, flipped = resolve_front_flips(bad, ub, pb, pts, lab, pri)
+        drawers = int(np.isin(lab, [1, 2, 3]).sum())
+        if drawers >= 30:
+            kinds["shown"] += 1
+        cam = T[0, :3, :3].T @ -T[0, :3, 3]  # the camera in the true cabinet frame: behind it, within 45 degrees
+        if drawers < 0.02 * len(lab) and -cam[2] > abs(cam[0]):
+            kinds["hidden"] += 1
+        elif drawers < 30:
+            continue  # neither rule decides: a side view with the drawers hidden
+        assert flipped.all()
+        np.testing.assert_allclose(fixed, T, atol=1e-9)
+        np.testing.assert_allclose(uf, u, atol=1e-9)
+        np.testing.assert_allclose(pf, piv, atol=1e-9)
+    assert kinds["shown"] >= 5 and kinds["hidden"] >= 1, kinds
+
+
+def test_turning_round_leaves_side_views_doubted_points_and_revolute_joints_alone():
+    """A chest (no upright prior: it turns about its stack's axis) seen from the front with its drawers' points
+    on it is left alone; the same drawers behind its centre turn it round about y, and their joint axes and
+    pivots with it. Drawers doubted by the segmentation do not count; a front seen from the side (60 degrees off
+    its normal) is not taken as bare; a model with revolute joints only is never turned."""
+    from ucope.voting import resolve_front_flips
+
+    pri = _chest()
+    T = np.tile(np.eye(4), (4, 1, 1))
+    T[:, :3, 3] = [0.0, 0.0, 3.0]  # the camera 3 m in front... of the cabinet's -z face: R turns it round
+    T[:, :3, :3] = np.diag([-1.0, 1.0, -1.0])  # the cabinet's +z (its front) towards the camera
+    u, piv = np.tile([0.0, 0.0, -1.0], (3, 1)), np.zeros((3, 3))
+    rng = np.random.default_rng(0)
+    front = np.column_stack([rng.uniform(-0.3, 0.3, 300), rng.uniform(-0.5, 0.5, 300), np.full(300, 2.75)])
+    body = np.column_stack([rng.uniform(-0.3, 0.3, 300), np.full(300, 0.5), rng.uniform(2.75, 3.25, 300)])
+    lab = np.r_[np.zeros(300, int), rng.integers(1, 4, 300)]
+    pts = np.r_[body, front]
+    same, _, _, flipped = resolve_front_flips(T, u, piv, pts, lab, pri)
+    assert not flipped.any() and np.array_equal(same, T)
+    back = front.copy()
+    back[:, 2] = 3.25  # the drawers' points behind the cabinet's centre
+    out, u2, piv2, flipped = resolve_front_flips(T, u, piv + [0.0, 0.0, 3.1], np.r_[body, back], lab, pri)
+    assert flipped.all()
+    np.testing.assert_allclose(out[0, :3, :3], np.eye(3), atol=1e-12)  # turned about y
+    np.testing.assert_allclose(u2, np.tile([0.0, 0.0, 1.0], (3, 1)), atol=1e-12)
+    np.testing.assert_allclose(piv2, np.tile([0.0, 0.0, 2.9], (3, 1)), atol=1e-12)
+    conf = np.r_[np.ones(300), np.full(300, 0.2)]  # the drawers' points doubted: the front looks bare
+    assert resolve_front_flips(T, u, piv, np.r_[body, back], lab, pri, confidence=conf)[3].all()
+    side = T.copy()
+    side[:, :3, :3] = rotation_about_axis([0.0, 1.0, 0.0], np.radians(120.0))  # the front 60 degrees off the camera
+    assert not resolve_front_flips(side, u, piv, body, np.zeros(300, int), pri)[3].any()
+    assert resolve_front_flips(T, u, piv, body, np.zeros(300, int), pri)[3].all()  # faced and bare
+    door = _door_priors()
+    Td = np.tile(np.eye(4), (2, 1, 1))
+    Td[:, 2, 3] = 2.0
+    out, *_, flipped = resolve_front_flips(Td, np.array([[1.0, 0.0, 0.0]]), np.zeros((1, 3)), body, np.ones(300, int), door)
+    assert not flipped.any() and np.array_equal(out, Td)
+
+
+def test_turning_round_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.voting import resolve_front_flips
+
+    pri = _chest()
+    T, S, _ = _chest_scene(0)
+    u, piv = np.tile([0.0, 0.0, 1.0], (3, 1)), np.zeros((3, 3))
+    pts, lab = np.zeros((40, 3)), _labels([10, 10, 10, 10])
+    with pytest.raises(InputError, match="cam_from_part"):
+        resolve_front_flips(T[:3], u, piv, pts, lab, pri)
+    with pytest.raises(InputError, match="finite"):
+        resolve_front_flips(T, u * np.nan, piv, pts, lab, pri)
+    with pytest.raises(InputError, match="points"):
+        resolve_front_flips(T, u, piv, pts[:, :2], lab, pri)
+    with pytest.raises(InputError, match="labels"):
+        resolve_front_flips(T, u, piv, pts, lab.astype(float), pri)
+    with pytest.raises(InputError, match="camera"):
+        resolve_front_flips(T, u, piv, pts, lab, pri, camera=(0.0, np.inf, 0.0))
+    with pytest.raises(InputError, match="confidence"):
+        resolve_front_flips(T, u, piv, pts, lab, pri, confidence=np.ones(3))
+    with pytest.raises(InputError, match="min_share"):
+        resolve_front_flips(T, u, piv, pts, lab, pri, min_share=1.5)
+    with pytest.raises(InputError, match="max_deg"):
+        resolve_front_flips(T, u, piv, pts, lab, pri, max_deg=120.0)
+    with pytest.raises(InputError, match="min_confidence"):
+        resolve_front_flips(T, u, piv, pts, lab, pri, min_confidence=2.0)

@@ -627,6 +627,12 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "points; docs/voting.md)",
     )
     p.add_argument(
+        "--no-flip-fronts",
+        action="store_true",
+        help="keep a cabinet facing the way voting turned it (default: turned round where its drawers' points say "
+        "its front is its back; docs/voting.md)",
+    )
+    p.add_argument(
         "--no-rescale",
         action="store_true",
         help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",

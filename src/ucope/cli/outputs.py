@@ -212,6 +212,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         slide_fronts=not getattr(args, "no_slide_fronts", False),
         stack_children=not getattr(args, "no_stack_children", False),
         turn_children=not getattr(args, "no_turn_children", False),
+        flip_fronts=not getattr(args, "no_flip_fronts", False),
         device=args.device,
         score_filter=False if args.no_score_filter else None,
         segment_pairs=False if args.pairs_from_cloud else None,

@@ -69,6 +69,7 @@ from ..voting import (
     place_prismatic_children,
     place_weak_parts,
     regressed_object,
+    resolve_front_flips,
     settle_joint_states,
     slide_to_fronts,
     stack_hidden_children,
@@ -376,6 +377,10 @@ class Estimator:
             its box lies along its own points, seen along that axis (:func:`ucope.voting.turn_thin_children`),
             after the other box steps and before the joint states are read off the boxes; on by default, measured
             in docs/results.md.
+        flip_fronts: turn a parent and its prismatic children (a cabinet and its drawers) round about the parent's
+            upright axis where the children's points lie behind its centre, or where its front faces the camera
+            and they show almost no points (:func:`ucope.voting.resolve_front_flips`), right after voting; on by
+            default, measured in docs/results.md.
         restarts: up to this many further estimates, each from another draw of the network's points and of
             the pairs (at the scale the estimate so far was made at), while the best object score so far is
             below :data:`RESTART_BELOW`; the highest-scored estimate stands (ties: the earlier). One draw of
@@ -422,6 +427,7 @@ class Estimator:
         slide_fronts: bool = True,
         stack_children: bool = True,
         turn_children: bool = True,
+        flip_fronts: bool = True,
         restarts: int = 0,
     ):
         if not isinstance(model, UCOPENet):
@@ -476,6 +482,7 @@ class Estimator:
         self.slide_fronts = bool(slide_fronts)
         self.stack_children = bool(stack_children)
         self.turn_children = bool(turn_children)
+        self.flip_fronts = bool(flip_fronts)
         self.restarts = int(restarts)
 
     # ------------------------------------------------------------------------------------- loading
@@ -827,13 +834,25 @@ class Estimator:
             )
         K = cfg.num_parts
         seg_prob = enc["seg_logits"][0].softmax(-1).cpu().numpy() if "seg_logits" in enc else None
+        # the object, not the background, as the segmentation sees it (models with a background class)
+        object_conf = 1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None
+        part_labels = np.where(labels < K, labels, -1)  # the background class (models with one) as no part
+        if self.flip_fronts and any(j.type == JointType.PRISMATIC for j in self.priors.joints):  # before the scores
+            v = dict(v)
+            v["cam_from_part"], v["joint_axis"], v["joint_pivot"], _ = resolve_front_flips(
+                v["cam_from_part"],
+                v["joint_axis"],
+                v["joint_pivot"],
+                p_net,
+                part_labels,
+                self.priors,
+                confidence=object_conf,
+                camera=centre * (1.0 - scale),
+            )
         feats = part_features(
             v, labels, seg_prob, p_net, num_input, [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
         )
         scores = self.calibration.part_scores(feats) if self.calibration is not None else np.asarray(v["score"], np.float64)
-        # the object, not the background, as the segmentation sees it (models with a background class)
-        object_conf = 1.0 - seg_prob[:, K] if seg_prob is not None and seg_prob.shape[1] > K else None
-        part_labels = np.where(labels < K, labels, -1)  # the background class (models with one) as no part
         if self.grow_boxes:  # after the scores: the calibration's box-fit features see the voted boxes
             v = dict(v)
             v["cam_from_part"], v["size_m"], _ = grow_to_points(
@@ -889,7 +908,7 @@ class Estimator:
             )
         if self.stack_children and self.priors.stacks:
             v = dict(v)
-            v["cam_from_part"], _ = stack_hidden_children(
+            v["cam_from_part"], v["size_m"], _ = stack_hidden_children(
                 v["cam_from_part"], v["size_m"], part_labels, self.priors, confidence=object_conf
             )
         if self.free_space and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand

@@ -25,6 +25,8 @@ measured accuracy.
 * :func:`slide_to_fronts`: a drawer slid along its slide until its front meets its points.
 * :func:`stack_hidden_children`: a hidden drawer put against a seen one in its stack (or under its cabinet's top).
 * :func:`turn_thin_children`: a thin revolute child (a door, a lid) turned about its joint to lie along its points.
+* :func:`resolve_front_flips`: a cabinet turned round, its drawers with it, where its drawers' points say its front
+  is its back.
 * :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
@@ -54,6 +56,7 @@ from .kinematic import (
     hold_prismatic_children,
     kinematic_refine,
     place_prismatic_children,
+    resolve_front_flips,
     resolve_joint_flips,
     resolve_shape_flips,
     settle_joint_states,
@@ -89,6 +92,7 @@ __all__ = [
     "ShapeIndex",
     "kinematic_refine",
     "resolve_joint_flips",
+    "resolve_front_flips",
     "resolve_shape_flips",
     "carry_upright",
     "turn_upright",
