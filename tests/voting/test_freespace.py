@@ -141,6 +141,8 @@ def test_bad_input_is_named():
         place_weak_parts(T, S, axis[None], hinge[None], pts, labels, pr, weak_share=1.5)
     with pytest.raises(InputError, match="step_deg"):
         place_weak_parts(T, S, axis[None], hinge[None], pts, labels, pr, step_deg=0.0)
+    with pytest.raises(InputError, match="upright_margin_deg"):
+        place_weak_parts(T, S, axis[None], hinge[None], pts, labels, pr, upright_margin_deg=float("nan"))
 
 
 def test_a_camera_off_the_origin_is_the_scene_moved_to_it():
@@ -162,3 +164,30 @@ def test_a_camera_off_the_origin_is_the_scene_moved_to_it():
     np.testing.assert_array_equal(segments_through_box(moved, S, pts + c, camera=c), segments_through_box(voted, S, pts))
     with pytest.raises(InputError, match="camera"):
         place_weak_parts(voted, S, axis[None], hinge[None], pts, labels, _priors(), camera=[0.0, np.nan, 0.0])
+
+
+def test_a_part_is_never_turned_outside_the_upright_the_training_views_held_it_in():
+    """The lid of the scene voted 50 degrees closed, with an upright prior (its y axis held within 20 degrees of
+    the voted lid's y): free space alone turns it back onto the truth, 50 degrees off that upright; with the
+    prior's cone plus the margin (30 degrees) as the bound, it turns as far towards the truth as the bound lets it
+    and no further. Without a bound (``upright_margin_deg=None``, an estimator told the camera may be rolled) the
+    truth stands again."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(0)
+    T, S, axis, hinge, pts, labels = _scene(rng)
+    voted = T.copy()
+    voted[1] = _turn(T[1], axis, hinge, 50.0)
+    up = voted[1, :3, 1]
+    base, lid = _priors().parts
+    lid = replace(lid, upright_axis=1, upright_in_cam=tuple(up), upright_cone_deg=20.0)
+    priors = replace(_priors(), parts=(base, lid))
+
+    def tilt(P):
+        return np.degrees(np.arccos(np.clip(P[1, :3, 1] @ up, -1.0, 1.0)))
+
+    free, turned = place_weak_parts(voted, S, axis[None], hinge[None], pts, labels, priors, upright_margin_deg=None)
+    assert abs(np.degrees(turned[1]) + 50.0) <= 2.0 and tilt(free) == pytest.approx(50.0, abs=2.0)
+    out, turned = place_weak_parts(voted, S, axis[None], hinge[None], pts, labels, priors, upright_margin_deg=10.0)
+    assert tilt(out) <= 30.0 + 1e-9
+    assert np.degrees(turned[1]) == pytest.approx(-30.0, abs=1e-9)  # the bound's edge, on the 2-degree grid

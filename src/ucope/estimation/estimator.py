@@ -58,6 +58,7 @@ from ..model.pointnet2 import numpy_fps_indices
 from ..priors import cloud_radius
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from ..voting import (
+    UPRIGHT_MARGIN_DEG,
     ShapeIndex,
     VotingOptions,
     anchor_faced_faces,
@@ -922,6 +923,7 @@ class Estimator:
                 part_labels,
                 self.priors,
                 camera=centre * (1.0 - scale),  # the cloud was scaled about centre (the roll turns about the camera)
+                upright_margin_deg=UPRIGHT_MARGIN_DEG if self.upright else None,
             )
         if self.turn_children and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
             v = dict(v)

@@ -49,6 +49,7 @@ from .faces import align_parts_to_faces, align_to_faces
 from .freespace import place_weak_parts
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
+    UPRIGHT_MARGIN_DEG,
     ShapeIndex,
     carry_child_sizes,
     carry_prismatic_depths,
@@ -115,4 +116,5 @@ __all__ = [
     "align_to_faces",
     "align_parts_to_faces",
     "place_weak_parts",
+    "UPRIGHT_MARGIN_DEG",
 ]

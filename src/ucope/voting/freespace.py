@@ -13,7 +13,11 @@ least cost
 ``hidden``: the share of the other parts' points whose segment from the camera (to ``stop`` of the way)
 passes through the box shrunk by ``shrink``; ``misfit``: the median distance of the part's own points to
 its box's surface over the box diagonal; the last term keeps the voted angle where the points do not
-decide. Camera frame (the camera at the origin), metres, radians. Measured in docs/results.md.
+decide. A part with an upright prior (``PartPrior.upright_*``) is never turned further than ``upright_margin_deg``
+beyond the cone the training views held its upright axis in: a laptop base seen from behind shows a strip of
+points along its hinge edge, which fits a face of the box turned 40-60 degrees as well as the truth, and the
+turn had undone the upright carry (:func:`ucope.voting.kinematic.carry_upright`) that had brought it back within 1
+degree of its upright. Camera frame (the camera at the origin), metres, radians. Measured in docs/results.md.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from ..geometry.kinematics import joint_state_from_poses
 from ..geometry.transforms import axis_angle_transform
 from ..priors import CategoryPriors
 from ..vocab import JointType
+from .kinematic import UPRIGHT_MARGIN_DEG
 
 __all__ = [
     "place_weak_parts",
@@ -117,6 +122,7 @@ def place_weak_parts(
     max_turn_deg: float = MAX_TURN_DEG,
     step_deg: float = STEP_DEG,
     camera=None,
+    upright_margin_deg: float | None = UPRIGHT_MARGIN_DEG,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Parts the camera barely sees, turned about their revolute joint to where the points say they can be.
 
@@ -125,8 +131,10 @@ def place_weak_parts(
     object's labelled points next to one with at least ``strong_share`` is turned about the joint's axis
     (``joint_axis`` through ``joint_pivot``) by the angle of least cost (module docstring) among
     ``0, +-step_deg, ...`` up to ``max_turn_deg``, whose joint state
-    (:func:`ucope.geometry.kinematics.joint_state_from_poses`) stays inside the category's limits. Each
-    part turns at most once; sizes are kept; the caller re-reads the joint states from the new poses.
+    (:func:`ucope.geometry.kinematics.joint_state_from_poses`) stays inside the category's limits and, for a
+    part with an upright prior, whose upright axis stays within ``upright_cone_deg + upright_margin_deg`` of
+    ``upright_in_cam``. Each part turns at most once; sizes are kept; the caller re-reads the joint states from
+    the new poses.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres; or any frame ``camera`` is given in).
@@ -138,6 +146,8 @@ def place_weak_parts(
         weak_share, strong_share, turn_cost, max_turn_deg, step_deg: as above.
         camera: ``(3,)`` the camera centre in that frame (``None``: the origin; a cloud scaled about a centre
             ``c`` by ``s`` has it at ``c (1 - s)``).
+        upright_margin_deg: degrees beyond each part's upright cone that a turn may take it (``None``: no bound,
+            for cameras that are not upright; the estimator passes ``None`` with ``upright=False``).
 
     Returns:
         ``(cam_from_part, turned_rad)``: a ``(K, 4, 4)`` float64 copy and ``(K,)`` the angle each part was
@@ -146,7 +156,7 @@ def place_weak_parts(
     Raises:
         InputError: shapes that do not match the priors, non-finite or non-positive values, shares outside
             ``[0, 1]``, a negative ``turn_cost``, a step that is not positive, a camera that is not a finite
-            ``(3,)`` position.
+            ``(3,)`` position, an ``upright_margin_deg`` that is not finite.
     """
     T = np.array(cam_from_part, dtype=np.float64)
     S = np.asarray(size_m, dtype=np.float64)
@@ -175,6 +185,8 @@ def place_weak_parts(
         raise InputError(
             f"turn_cost and max_turn_deg must be >= 0 and step_deg > 0, got {turn_cost!r}, {max_turn_deg!r}, {step_deg!r}"
         )
+    if upright_margin_deg is not None and not np.isfinite(upright_margin_deg):
+        raise InputError(f"upright_margin_deg must be finite or None, got {upright_margin_deg!r}")
     turned = np.zeros(K)
     on_part = (lab >= 0) & (lab < K)
     count = np.bincount(lab[on_part], minlength=K)
@@ -200,6 +212,10 @@ def place_weak_parts(
                 ok &= q >= lo - 1e-9
             if hi is not None:
                 ok &= q <= hi + 1e-9
+            pp = priors.parts[w]
+            if upright_margin_deg is not None and pp.upright_axis is not None and pp.upright_cone_deg is not None:
+                tilt = np.degrees(np.arccos(np.clip(cand[:, :3, pp.upright_axis] @ np.asarray(pp.upright_in_cam), -1.0, 1.0)))
+                ok &= tilt <= pp.upright_cone_deg + upright_margin_deg
             ok[0] = True  # the voted angle stays a candidate (the caller clamps its state)
             others = pts[on_part & (lab != w)]
             own = pts[lab == w]
