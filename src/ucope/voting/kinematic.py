@@ -1419,8 +1419,9 @@ def resolve_front_flips(
 
     * where the children show at least ``min_points`` (confident) points and their median along ``a`` lies behind
       the parent's centre, or
-    * where the camera faces the ``+a`` face (beyond it, within ``max_deg`` of its normal about the parent's
-      upright axis) and the children show under ``min_share`` of the object's (confident) labelled points,
+    * where the camera lies ahead of the parent's centre along ``+a``, within ``max_deg`` of that direction seen
+      along the parent's upright axis (the centre, not the face: a turned-round box may be mis-sized along ``a``),
+      and the children show under ``min_share`` of the object's (confident) labelled points,
 
     the parent and every part below it are turned by a half turn about the parent's upright axis
     (``PartPrior.upright_axis``; else the axis its children are stacked along, ``StackPrior.axis``; else its first
@@ -1429,7 +1430,8 @@ def resolve_front_flips(
 
     Args:
         cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres).
-        joint_axis, joint_pivot: ``(J, 3)`` the joints' axes (unit) and pivots (metres), same frame.
+        joint_axis, joint_pivot: ``(J, 3)`` the joints' axes (unit) and pivots (metres), same frame; a pivot may be
+            NaN (a prismatic joint has none) and stays NaN.
         points: ``(P, 3)`` the cloud (same frame, metres).
         labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (joint tree, types, canonical axes, upright axes).
@@ -1443,7 +1445,7 @@ def resolve_front_flips(
         turned.
 
     Raises:
-        InputError: shapes that do not match the priors, non-finite poses, axes, pivots, points or camera,
+        InputError: shapes that do not match the priors, non-finite poses, axes, points or camera,
             labels that are not integers, confidences that are not one finite value per point, or a setting out
             of its range.
     """
@@ -1497,7 +1499,6 @@ def resolve_front_flips(
         c = R.T @ (cam - t)  # the camera in the parent's frame
         side = 3 - i - b  # the third axis: across the front, seen from above
         ahead = sign * c[i]
-        # the parent's extent along a is not known to be right (a flipped box may be mis-sized): the centre's side
         faces = ahead > 0.0 and np.degrees(np.arctan2(abs(c[side]), ahead)) <= max_deg
         bare = faces and n_kids < min_share * int(np.count_nonzero(counted))
         if not (behind or bare):
