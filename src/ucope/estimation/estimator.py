@@ -20,7 +20,9 @@ Pipeline of :meth:`Estimator.predict` (timed stage by stage in ``result.timings_
 
 Stages 2-4 run twice where the first run segments part of the cloud as not the object or finds it outside
 the model's sizes: the second run sees the object's points only (``Estimator(recrop=True)``, the
-default; the timings are the sums). Where the result's calibrated score is below :data:`SCALE_SEARCH_BELOW`,
+default; the timings are the sums). Right after voting, in every run, a parent whose prismatic
+children's points say its front is its back (a cabinet seen from behind, turned round) is turned round
+with them (``flip_fronts``). Where the result's calibrated score is below :data:`SCALE_SEARCH_BELOW`,
 the whole is repeated on the cloud normalised to the model's typical size (``scale_search``; at 0.8, 1 and
 1.25x it with ``wide_scale_search``) and the highest-scored estimate stands. In every run, after the part
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are

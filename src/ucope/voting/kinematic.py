@@ -1236,6 +1236,14 @@ TURN_CHECK_TOL = 0.25
 than this many of the child's thicknesses (a mislabelled strip of the parent that drew the line)."""
 
 
+def _checked_camera(camera) -> np.ndarray:
+    """``camera`` as a finite ``(3,)`` float64 point; InputError otherwise (the turn's and the flip's check)."""
+    cam = np.asarray(camera, dtype=np.float64)
+    if cam.shape != (3,) or not np.isfinite(cam).all():
+        raise InputError(f"camera must be a finite (3,) point, got shape {cam.shape}")
+    return cam
+
+
 def turn_thin_children(
     cam_from_part,
     size_m,
@@ -1313,9 +1321,7 @@ def turn_thin_children(
     length = np.linalg.norm(u_all, axis=1)
     if np.any(length <= 0.0):
         raise InputError("joint_axis must not hold a zero-length axis")
-    cam = np.asarray(camera, dtype=np.float64)
-    if cam.shape != (3,) or not np.isfinite(cam).all():
-        raise InputError(f"camera must be a finite (3,) point, got shape {cam.shape}")
+    cam = _checked_camera(camera)
     if not 0.0 < thin_ratio <= 1.0:
         raise InputError(f"thin_ratio must lie in (0, 1], got {thin_ratio!r}")
     if int(min_points) < 3 or not min_elongation >= 1.0:
@@ -1466,9 +1472,7 @@ def resolve_front_flips(
         raise InputError(f"points must be a finite (P, 3) array, got shape {pts.shape}")
     if lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
         raise InputError(f"labels must be one integer per point, got {lab.dtype} of shape {lab.shape}")
-    cam = np.asarray(camera, dtype=np.float64)
-    if cam.shape != (3,) or not np.isfinite(cam).all():
-        raise InputError(f"camera must be a finite (3,) point, got shape {cam.shape}")
+    cam = _checked_camera(camera)
     if not (0.0 <= min_share <= 1.0 and int(min_points) >= 1 and 0.0 <= max_deg <= 90.0):
         raise InputError(
             f"min_share must lie in [0, 1], min_points be >= 1 and max_deg lie in [0, 90], got {min_share!r}, "
