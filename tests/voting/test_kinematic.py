@@ -1239,3 +1239,85 @@ def test_turning_round_names_bad_input():
         resolve_front_flips(T, u, piv, pts, lab, pri, max_deg=120.0)
     with pytest.raises(InputError, match="min_confidence"):
         resolve_front_flips(T, u, piv, pts, lab, pri, min_confidence=2.0)
+
+
+def _seat_scene(door_points, body_points=3000, q=0.6):
+    """A body and a door open by ``q`` rad hinged at the body's front bottom edge (``_door_priors``), the door
+    voted 0.3 m along its hinge and 0.2 m out in front; labels: so many points of each."""
+    rng = np.random.default_rng(3)
+    R0 = rotation_about_axis(rng.normal(size=3), 0.8)
+    S = np.array([[0.6, 0.8, 0.6], [0.6, 0.7, 0.05]])
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[0, :3, :3], T[0, :3, 3] = R0, [0.1, -0.2, 2.4]
+    T[1, :3, :3] = R0 @ rotation_about_axis(np.array([1.0, 0.0, 0.0]), q)
+    hinge = R0 @ (np.array([0.0, -0.5, 0.5]) * S[0]) + T[0, :3, 3]
+    T[1, :3, 3] = hinge - T[1, :3, :3] @ (np.array([0.0, -0.5, -0.5]) * S[1])
+    voted = T.copy()
+    voted[1, :3, 3] += R0 @ np.array([0.3, 0.0, 0.2])
+    labels = np.repeat([0, 1, -1], [body_points, door_points, 50])
+    return T, voted, S, labels, hinge
+
+
+def test_a_door_showing_few_points_is_seated_back_on_its_hinge():
+    """A door with 2 % of the points, voted off along its hinge and in front of the body: its centre goes where
+    its hinge point meets the body's (a plain reference from the pivot places), the joint's pivot to that point;
+    its rotation, the body and the sizes stay. A door with half the points keeps its voted centre."""
+    from ucope.voting import seat_weak_parts
+
+    pri = _door_priors()
+    T, voted, S, labels, hinge = _seat_scene(door_points=60)
+    piv = np.array([[9.0, 9.0, 9.0]])
+    got, got_piv, seated = seat_weak_parts(voted, S, piv, labels, pri)
+    assert seated.tolist() == [False, True]
+    np.testing.assert_allclose(got[1], T[1], atol=1e-12)  # the scene's door sits exactly at the pivot places
+    np.testing.assert_allclose(got_piv[0], hinge, atol=1e-12)
+    np.testing.assert_array_equal(got[0], voted[0])
+    np.testing.assert_array_equal(got[1, :3, :3], voted[1, :3, :3])
+    assert np.array_equal(piv, [[9.0, 9.0, 9.0]])  # the input is not changed
+    _, voted_strong, _, strong_labels, _ = _seat_scene(door_points=3000)
+    same, same_piv, seated = seat_weak_parts(voted_strong, S, piv, strong_labels, pri)
+    assert not seated.any() and np.array_equal(same, voted_strong) and np.array_equal(same_piv, piv)
+
+
+def test_seating_takes_a_weak_root_from_its_child_and_leaves_shared_views_prismatic_and_pivotless_joints_alone():
+    from ucope.priors import CategoryPriors, JointPrior
+    from ucope.voting import seat_weak_parts
+
+    pri = _door_priors()
+    T, _, S, _, hinge = _seat_scene(door_points=60)
+    voted = T.copy()
+    voted[0, :3, 3] += [0.2, -0.1, 0.3]  # the body (the root of two parts) voted off, the door seen well
+    got, got_piv, seated = seat_weak_parts(voted, S, np.zeros((1, 3)), np.repeat([0, 1], [40, 3000]), pri)
+    assert seated.tolist() == [True, False]
+    np.testing.assert_allclose(got[0], T[0], atol=1e-12)
+    np.testing.assert_allclose(got_piv[0], hinge, atol=1e-12)
+    shared = np.repeat([0, 1, -1], [2400, 600, 3000])  # 80 / 20 % of the object: neither weak
+    for kind, pivots in (("revolute", True), ("prismatic", True), ("revolute", False)):
+        kw = {"pivot_in_parent": (0.0, -0.5, 0.5), "pivot_in_child": (0.0, -0.5, -0.5)} if pivots else {}
+        other = CategoryPriors(
+            category="cabinet_door",
+            parts=pri.parts,
+            joints=(JointPrior(kind, 0, 1, (1, 0, 0), limits=(0.0, 1.0), **kw),),
+        )
+        labels = shared if (kind, pivots) == ("revolute", True) else np.repeat([0, 1], [3000, 60])
+        same, _, seated = seat_weak_parts(voted, S, np.zeros((1, 3)), labels, other)
+        assert not seated.any() and np.array_equal(same, voted)
+
+
+def test_seating_names_bad_input():
+    from ucope.errors import InputError
+    from ucope.voting import seat_weak_parts
+
+    pri = _door_priors()
+    T, voted, S, labels, _ = _seat_scene(door_points=60)
+    piv = np.zeros((1, 3))
+    with pytest.raises(InputError, match="shapes"):
+        seat_weak_parts(voted[:1], S, piv, labels, pri)
+    with pytest.raises(InputError, match="integers"):
+        seat_weak_parts(voted, S, piv, labels.astype(float), pri)
+    with pytest.raises(InputError, match="finite"):
+        seat_weak_parts(voted, S, np.full((1, 3), np.nan), labels, pri)
+    with pytest.raises(InputError, match="positive"):
+        seat_weak_parts(voted, -S, piv, labels, pri)
+    with pytest.raises(InputError, match="lie in"):
+        seat_weak_parts(voted, S, piv, labels, pri, weak_share=1.5)

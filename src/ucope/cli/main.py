@@ -550,6 +550,14 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "shipped models where it measured better, docs/results.md)",
     )
     p.add_argument(
+        "--seat-parts",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="put a part that shows few points and stands off its hinge (a closed door seen from behind) where its "
+        "hinge meets its well-seen neighbour's (default: the model's own; on for the shipped models where it "
+        "measured better, docs/results.md)",
+    )
+    p.add_argument(
         "--denoise-above",
         type=float,
         default=None,

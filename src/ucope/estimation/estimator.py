@@ -73,6 +73,7 @@ from ..voting import (
     place_weak_parts,
     regressed_object,
     resolve_front_flips,
+    seat_weak_parts,
     settle_joint_states,
     slide_to_fronts,
     stack_hidden_children,
@@ -384,6 +385,10 @@ class Estimator:
             upright axis where the children's points lie behind its centre, or where its front faces the camera
             and they show almost no points (:func:`ucope.voting.resolve_front_flips`), right after voting; on by
             default, measured in docs/results.md.
+        seat_parts: put the centre of a part that shows few points (a closed door seen from behind) and stands off
+            its hinge where its revolute joint's axis meets its well-seen neighbour's box
+            (:func:`ucope.voting.seat_weak_parts`), after the joint states are read off the boxes. Off here;
+            :meth:`load` takes the model's default (on for the shipped dishwasher, measured in docs/results.md).
         restarts: up to this many further estimates, each from another draw of the network's points and of
             the pairs (at the scale the estimate so far was made at), while the best object score so far is
             below :data:`RESTART_BELOW`; the highest-scored estimate stands (ties: the earlier). One draw of
@@ -431,6 +436,7 @@ class Estimator:
         stack_children: bool = True,
         turn_children: bool = True,
         flip_fronts: bool = True,
+        seat_parts: bool = False,
         restarts: int = 0,
     ):
         if not isinstance(model, UCOPENet):
@@ -486,6 +492,7 @@ class Estimator:
         self.stack_children = bool(stack_children)
         self.turn_children = bool(turn_children)
         self.flip_fronts = bool(flip_fronts)
+        self.seat_parts = bool(seat_parts)
         self.restarts = int(restarts)
 
     # ------------------------------------------------------------------------------------- loading
@@ -501,6 +508,7 @@ class Estimator:
         anchor_faces: bool | None = None,
         align_faces: bool | None = None,
         free_space: bool | None = None,
+        seat_parts: bool | None = None,
         wide_scale_search: bool | None = None,
         restarts: int | None = None,
         **kwargs,
@@ -510,8 +518,9 @@ class Estimator:
 
         ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` /
         ``fit_extents=None`` / ``anchor_faces=None`` / ``align_faces=None`` / ``free_space=None`` /
-        ``wide_scale_search=None`` / ``restarts=None`` take the model's own defaults (``info.defaults`` of its JSON,
-        set when it was packaged where they measured better). Other keyword arguments: as the constructor."""
+        ``seat_parts=None`` / ``wide_scale_search=None`` / ``restarts=None`` take the model's own defaults
+        (``info.defaults`` of its JSON, set when it was packaged where they measured better). Other keyword
+        arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
@@ -526,6 +535,7 @@ class Estimator:
             anchor_faces=anchor_faces,
             align_faces=align_faces,
             free_space=free_space,
+            seat_parts=seat_parts,
             wide_scale_search=wide_scale_search,
         )
         for key, value in switches.items():  # None: the model's own default (off where it has none)
@@ -947,6 +957,10 @@ class Estimator:
             )
             v["joint_score"] = np.where(clamped & ~before, 0.5 * np.asarray(v["joint_score"]), v["joint_score"])
             v["joint_clamped"] = before | clamped
+            if self.seat_parts:  # after the states: a revolute state is the same wherever the centre stands
+                v["cam_from_part"], v["joint_pivot"], v["seated"] = seat_weak_parts(
+                    v["cam_from_part"], v["size_m"], v["joint_pivot"], part_labels, self.priors
+                )
         carried = np.asarray(v.get("carried", np.zeros(K, dtype=bool)), dtype=bool)
         scores = np.where(carried, 0.5 * scores, scores)
         if scale != 1.0:
@@ -966,6 +980,11 @@ class Estimator:
                 f"part {parts[k].label!r}: it showed few points; it was turned by {np.degrees(v['free_space_turned'][k]):.0f} "
                 "degrees about its joint to where its box hides none of the points the camera sees and its own points "
                 "lie on it"
+            )
+        for k in np.flatnonzero(v.get("seated", [])):
+            warnings.append(
+                f"part {parts[k].label!r}: it showed few points and its voted centre stood off its hinge; it was put "
+                "where its hinge meets its neighbour's"
             )
         for k in np.flatnonzero(v.get("upright_turned", [])):
             warnings.append(
