@@ -93,6 +93,7 @@ SWITCHES = {
     "anchor_faces": ("anchor the root part's faced faces to its points", "docs/results.md"),
     "free_space": ("turn parts they barely see about their joint to where the points say they can be", "docs/results.md"),
     "seat_parts": ("put parts they barely see that stand off their hinge back on it", "docs/results.md"),
+    "pick_seen_parts": ("compare their estimates by the parts given points only", "docs/results.md"),
 }
 """The model switches packaging sets per category (``info.defaults.<key>``): what each does, where it was
 measured. ``--<key with dashes> CAT...`` names the categories that get it on."""

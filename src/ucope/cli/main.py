@@ -550,6 +550,13 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "shipped models where it measured better, docs/results.md)",
     )
     p.add_argument(
+        "--pick-seen-parts",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="let the scale search and the restarts compare estimates by the parts given points only (default: the "
+        "model's own; on for the shipped models where it measured better, docs/results.md)",
+    )
+    p.add_argument(
         "--seat-parts",
         action=argparse.BooleanOptionalAction,
         default=None,

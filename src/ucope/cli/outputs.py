@@ -203,6 +203,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         align_faces=getattr(args, "align_faces", None),
         free_space=getattr(args, "free_space", None),
         seat_parts=getattr(args, "seat_parts", None),
+        pick_seen_parts=getattr(args, "pick_seen_parts", None),
         recrop=not getattr(args, "no_recrop", False),
         scale_search=not getattr(args, "no_scale_search", False),
         wide_scale_search=getattr(args, "wide_scale_search", None),

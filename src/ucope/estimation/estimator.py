@@ -216,6 +216,14 @@ def _object_score(p: _Pass) -> float:
     return min(pe.score for pe in p.parts)
 
 
+def _seen_score(p: _Pass) -> float:
+    """The smallest score of the parts of a pass that were given at least one point (all parts where none was):
+    a part no point was segmented as has no evidence for either estimate (``Estimator(pick_seen_parts=True)``)."""
+    count = np.bincount(p.labels[p.labels >= 0], minlength=len(p.parts))
+    seen = [pe.score for pe, n in zip(p.parts, count, strict=False) if n > 0]
+    return min(seen) if seen else _object_score(p)
+
+
 @dataclass
 class _Estimate:
     """One or two passes of :meth:`Estimator.predict` (:meth:`Estimator._estimate`): the one that stands,
@@ -326,6 +334,10 @@ class Estimator:
             :data:`WIDE_SCALE_SEARCH` of the middle of the typical radii, not to the middle alone (two more
             estimates where it runs; an estimate identical to one already made is not made again). Off
             here; :meth:`load` takes the model's default (on where it measured better: docs/results.md).
+        pick_seen_parts: the scale search and the restarts keep the estimate whose smallest score over the parts
+            given at least one point is highest, not the smallest over all parts: the score of a part no point was
+            segmented as (a closed door seen from behind) compares nothing. Off here; :meth:`load` takes the
+            model's default (on for the shipped dishwasher, measured in docs/results.md).
         grow_boxes: widen every part's box to hold the points segmented as that part
             (:func:`ucope.voting.grow_to_points`: never shrunk, thin axes and parts symmetric about y
             kept; only points joined to the box that the segmentation is sure are not background), after
@@ -424,6 +436,7 @@ class Estimator:
         recrop: bool = True,
         scale_search: bool = True,
         wide_scale_search: bool = False,
+        pick_seen_parts: bool = False,
         grow_boxes: bool = False,
         fit_extents: bool = False,
         anchor_faces: bool = False,
@@ -480,6 +493,7 @@ class Estimator:
         self.recrop = bool(recrop)
         self.scale_search = bool(scale_search)
         self.wide_scale_search = bool(wide_scale_search)
+        self.pick_seen_parts = bool(pick_seen_parts)
         self.grow_boxes = bool(grow_boxes)
         self.fit_extents = bool(fit_extents)
         self.anchor_faces = bool(anchor_faces)
@@ -510,6 +524,7 @@ class Estimator:
         free_space: bool | None = None,
         seat_parts: bool | None = None,
         wide_scale_search: bool | None = None,
+        pick_seen_parts: bool | None = None,
         restarts: int | None = None,
         **kwargs,
     ) -> Estimator:
@@ -518,9 +533,9 @@ class Estimator:
 
         ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` /
         ``fit_extents=None`` / ``anchor_faces=None`` / ``align_faces=None`` / ``free_space=None`` /
-        ``seat_parts=None`` / ``wide_scale_search=None`` / ``restarts=None`` take the model's own defaults
-        (``info.defaults`` of its JSON, set when it was packaged where they measured better). Other keyword
-        arguments: as the constructor."""
+        ``seat_parts=None`` / ``wide_scale_search=None`` / ``pick_seen_parts=None`` / ``restarts=None`` take the
+        model's own defaults (``info.defaults`` of its JSON, set when it was packaged where they measured better).
+        Other keyword arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
@@ -537,6 +552,7 @@ class Estimator:
             free_space=free_space,
             seat_parts=seat_parts,
             wide_scale_search=wide_scale_search,
+            pick_seen_parts=pick_seen_parts,
         )
         for key, value in switches.items():  # None: the model's own default (off where it has none)
             switches[key] = bool(defaults.get(key, False)) if value is None else value
@@ -608,7 +624,8 @@ class Estimator:
             """The higher-scored of two estimates (ties: the one kept so far), ``alt``'s time counted."""
             nonlocal timings
             timings = {key: timings[key] + alt.timings[key] for key in timings}
-            return alt if _object_score(alt.final) > _object_score(kept.final) else kept
+            score = _seen_score if self.pick_seen_parts else _object_score
+            return alt if score(alt.final) > score(kept.final) else kept
 
         if self.rescale and self.scale_search and self.calibration is not None and _object_score(est.final) < SCALE_SEARCH_BELOW:
             for factor in WIDE_SCALE_SEARCH if self.wide_scale_search else (1.0,):

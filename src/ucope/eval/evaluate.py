@@ -417,6 +417,7 @@ def evaluate(
             "turn_children": getattr(estimator, "turn_children", False),
             "flip_fronts": getattr(estimator, "flip_fronts", False),
             "seat_parts": getattr(estimator, "seat_parts", False),
+            "pick_seen_parts": getattr(estimator, "pick_seen_parts", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "grow_boxes": getattr(estimator, "grow_boxes", False),
