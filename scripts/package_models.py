@@ -94,6 +94,7 @@ SWITCHES = {
     "free_space": ("turn parts they barely see about their joint to where the points say they can be", "docs/results.md"),
     "seat_parts": ("put parts they barely see that stand off their hinge back on it", "docs/results.md"),
     "pick_seen_parts": ("compare their estimates by the parts given points only", "docs/results.md"),
+    "carry_in_cone": ("carry a part from its neighbour as soon as it leaves its training upright cone", "docs/results.md"),
 }
 """The model switches packaging sets per category (``info.defaults.<key>``): what each does, where it was
 measured. ``--<key with dashes> CAT...`` names the categories that get it on."""

@@ -1321,3 +1321,32 @@ def test_seating_names_bad_input():
         seat_weak_parts(voted, -S, piv, labels, pri)
     with pytest.raises(InputError, match="lie in"):
         seat_weak_parts(voted, S, piv, labels, pri, weak_share=1.5)
+
+
+def test_a_part_just_outside_its_upright_cone_is_carried_only_without_the_margin():
+    """Laptop: a base turned about the hinge to 5 degrees beyond its training cone is kept with the default
+    margin (10 degrees) and carried back inside the cone with ``margin_deg=0``."""
+    from ucope.voting import carry_upright, upright_angles_deg
+
+    S = _samples("laptop", "train", 12)
+    pri = measured_priors("laptop", S)
+    cone = pri.parts[0].upright_cone_deg
+    tried = 0
+    for s in S:
+        T, size = s["cam_from_part"], s["size_m"]
+        u = T[0, :3, :3] @ pri.joints[0].axis
+        for deg in np.arange(0.0, 90.0, 0.5):  # the smallest turn that takes the base 5 degrees outside the cone
+            turn = rotation_about_axis(u, np.radians(deg))
+            bad = T.copy()
+            bad[0, :3, :3] = turn @ T[0, :3, :3]
+            if upright_angles_deg(bad, pri)[0] >= cone + 5.0:
+                break
+        else:
+            continue
+        tried += 1
+        kept, carried = carry_upright(bad, size, pri)
+        assert not carried.any() and np.array_equal(kept, bad)
+        fixed, carried = carry_upright(bad, size, pri, margin_deg=0.0)
+        assert carried.tolist() == [True, False]
+        assert upright_angles_deg(fixed, pri)[0] <= cone
+    assert tried >= 6

@@ -204,6 +204,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         free_space=getattr(args, "free_space", None),
         seat_parts=getattr(args, "seat_parts", None),
         pick_seen_parts=getattr(args, "pick_seen_parts", None),
+        carry_in_cone=getattr(args, "carry_in_cone", None),
         recrop=not getattr(args, "no_recrop", False),
         scale_search=not getattr(args, "no_scale_search", False),
         wide_scale_search=getattr(args, "wide_scale_search", None),

@@ -418,6 +418,7 @@ def evaluate(
             "flip_fronts": getattr(estimator, "flip_fronts", False),
             "seat_parts": getattr(estimator, "seat_parts", False),
             "pick_seen_parts": getattr(estimator, "pick_seen_parts", False),
+            "carry_in_cone": getattr(estimator, "carry_in_cone", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
             "denoise_above_m": getattr(estimator, "denoise_above_m", None),
             "grow_boxes": getattr(estimator, "grow_boxes", False),

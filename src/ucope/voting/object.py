@@ -14,6 +14,7 @@ from ..vocab import JointType
 from .faces import align_parts_to_faces, face_normals
 from .joints import vote_joints
 from .kinematic import (
+    UPRIGHT_MARGIN_DEG,
     ShapeIndex,
     carry_upright,
     clamp_joint_states,
@@ -44,6 +45,7 @@ def vote_object(
     score_filter: bool | None = None,
     upright: bool = True,
     align_faces: bool = False,
+    carry_margin_deg: float = UPRIGHT_MARGIN_DEG,
 ) -> dict[str, Any]:
     """:func:`ucope.voting.part.vote_parts` + :func:`ucope.voting.joints.vote_joints` + joint states.
 
@@ -59,9 +61,9 @@ def vote_object(
     rotation is a half turn away from what its revolute joint allows is turned back
     (:func:`ucope.voting.kinematic.resolve_joint_flips`; the shape check applies to rigid objects
     only, docs/voting.md says why). With ``upright`` (default) a part voted far off the upright the
-    training views kept it in is re-placed from a neighbour through their joint
-    (:func:`ucope.voting.kinematic.carry_upright`), or, in an object without joints, turned over by a half
-    turn (:func:`ucope.voting.kinematic.turn_upright`).
+    training views kept it in (more than ``carry_margin_deg`` beyond their cone) is re-placed from a
+    neighbour through their joint (:func:`ucope.voting.kinematic.carry_upright`), or, in an object without
+    joints, turned over by a half turn (:func:`ucope.voting.kinematic.turn_upright`).
     Joint states come from the voted poses (:func:`ucope.geometry.kinematics.joint_state_from_poses`)
     about the voted joint axis (revolute), or from the box supports minus the joint's
     ``zero_offset_m`` (prismatic). With
@@ -119,7 +121,18 @@ def vote_object(
         for k in np.flatnonzero(priors.symmetric) if factor is not None else ():  # a part or two
             T, S, out["revolved"][k] = refine_revolution(out["cam_from_part"][k], out["size_m"][k], pts[part_points[k]], factor)
             out["cam_from_part"][k], out["size_m"][k] = T, S
-    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips, upright=upright, faces=faces)
+    return _with_joints(
+        out,
+        points,
+        outputs,
+        priors,
+        awareness,
+        refine,
+        resolve_flips,
+        upright=upright,
+        faces=faces,
+        carry_margin_deg=carry_margin_deg,
+    )
 
 
 BOX_FIT_MARGIN = 0.55
@@ -191,6 +204,7 @@ def regressed_object(
     refine: bool = False,
     resolve_flips: bool = True,
     upright: bool = True,
+    carry_margin_deg: float = UPRIGHT_MARGIN_DEG,
 ) -> dict[str, Any]:
     """The same dict as :func:`vote_object` for the direct-regression baseline
     (:class:`ucope.model.regression.RegressionNet`): part poses and sizes from its ``rotation``
@@ -212,7 +226,9 @@ def regressed_object(
         "score": regression_scores(np.asarray(points, np.float64), prob, T, size),
         "num_pairs": np.zeros(K, dtype=np.int64),
     }
-    return _with_joints(out, points, outputs, priors, awareness, refine, resolve_flips, upright=upright)
+    return _with_joints(
+        out, points, outputs, priors, awareness, refine, resolve_flips, upright=upright, carry_margin_deg=carry_margin_deg
+    )
 
 
 def _with_joints(
@@ -226,10 +242,11 @@ def _with_joints(
     clamp_states: bool = True,
     upright: bool = True,
     faces: tuple | None = None,
+    carry_margin_deg: float = UPRIGHT_MARGIN_DEG,
 ) -> dict[str, Any]:
     """Add the joints (:func:`vote_joints`), undo half-turn flips that contradict them
     (:func:`resolve_joint_flips`), re-place parts voted far off their upright (:func:`carry_upright`,
-    with ``upright``), then the joint states, clamped into the limits
+    with ``upright``, beyond ``carry_margin_deg`` outside their cone), then the joint states, clamped into the limits
     (:func:`clamp_joint_states`, the joint score halved where clamped), and the optional refinement.
 
     ``faces`` (``(normals (P, 3), K part point index arrays, the root's aligned rotation (3, 3))``, from
@@ -245,7 +262,7 @@ def _with_joints(
         out["cam_from_part"], out["flipped"] = resolve_joint_flips(out["cam_from_part"], out["joint_axis"], priors, out["size_m"])
     out["carried"] = np.zeros(priors.num_parts, dtype=bool)
     if upright and J > 0:
-        out["cam_from_part"], out["carried"] = carry_upright(out["cam_from_part"], out["size_m"], priors)
+        out["cam_from_part"], out["carried"] = carry_upright(out["cam_from_part"], out["size_m"], priors, carry_margin_deg)
     T, S = out["cam_from_part"], out["size_m"]
     state = np.zeros(J)
     for j, jp in enumerate(priors.joints):  # a handful of joints
