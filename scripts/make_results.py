@@ -868,6 +868,7 @@ def main() -> int:
             "the three-size scale search, the fitted extents and anchored faces, the laptop's and dishwasher's free "
             "space (inside the upright cone), the drawer's front flips, placement, slide and stack, the door, lid and "
             "temple turn, the settled joint states, the dishwasher's hinge seat and its pick by the parts given points, "
+            "the laptop's and scissors' upright carry inside the cone, "
             "the drawer's restarts; its stored weights, "
             "half precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "

@@ -1261,7 +1261,8 @@ def _seat_scene(door_points, body_points=3000, q=0.6):
 def test_a_door_showing_few_points_is_seated_back_on_its_hinge():
     """A door with 2 % of the points, voted off along its hinge and in front of the body: its centre goes where
     its hinge point meets the body's (a plain reference from the pivot places), the joint's pivot to that point;
-    its rotation, the body and the sizes stay. A door with half the points keeps its voted centre."""
+    its rotation, the body and the sizes stay. A door with half the points, or one voted less than ``min_gap`` of
+    its diagonal off, keeps its voted centre."""
     from ucope.voting import seat_weak_parts
 
     pri = _door_priors()
@@ -1277,6 +1278,12 @@ def test_a_door_showing_few_points_is_seated_back_on_its_hinge():
     _, voted_strong, _, strong_labels, _ = _seat_scene(door_points=3000)
     same, same_piv, seated = seat_weak_parts(voted_strong, S, piv, strong_labels, pri)
     assert not seated.any() and np.array_equal(same, voted_strong) and np.array_equal(same_piv, piv)
+    near = T.copy()  # 5 cm off, under 0.2 of the door's 0.92 m diagonal: the vote stands
+    near[1, :3, 3] += T[0, :3, :3] @ np.array([0.05, 0.0, 0.0])
+    same, _, seated = seat_weak_parts(near, S, piv, labels, pri)
+    assert not seated.any() and np.array_equal(same, near)
+    _, seated = seat_weak_parts(near, S, piv, labels, pri, min_gap=0.0)[1:]
+    assert seated.tolist() == [False, True]
 
 
 def test_seating_takes_a_weak_root_from_its_child_and_leaves_shared_views_prismatic_and_pivotless_joints_alone():
@@ -1321,6 +1328,8 @@ def test_seating_names_bad_input():
         seat_weak_parts(voted, -S, piv, labels, pri)
     with pytest.raises(InputError, match="lie in"):
         seat_weak_parts(voted, S, piv, labels, pri, weak_share=1.5)
+    with pytest.raises(InputError, match="min_gap"):
+        seat_weak_parts(voted, S, piv, labels, pri, min_gap=-0.1)
 
 
 def test_a_part_just_outside_its_upright_cone_is_carried_only_without_the_margin():

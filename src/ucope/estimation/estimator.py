@@ -24,7 +24,8 @@ default; the timings are the sums). Right after voting, in every run, a parent w
 children's points say its front is its back (a cabinet seen from behind, turned round) is turned round
 with them (``flip_fronts``). Where the result's calibrated score is below :data:`SCALE_SEARCH_BELOW`,
 the whole is repeated on the cloud normalised to the model's typical size (``scale_search``; at 0.8, 1 and
-1.25x it with ``wide_scale_search``) and the highest-scored estimate stands. In every run, after the part
+1.25x it with ``wide_scale_search``) and the highest-scored estimate stands (by its lowest part score, or, with
+``pick_seen_parts``, the lowest over the parts given points). In every run, after the part
 scores, boxes are widened to their points (``grow_boxes``), the axes that views like this one see whole are
 set from the points (``fit_extents``), the root part's faces that the camera faces are put where its points
 are (``anchor_faces``), a parent's box is widened across its prismatic children's slides to hold their points
@@ -34,7 +35,9 @@ along it to where its points end (``slide_fronts``), and, where a view hides it,
 (``stack_children``); each thin revolute child is turned about its joint's axis to lie along its own points
 (``turn_children``). Last, every joint state is read off the final boxes and clamped into the category's limits
 (the child moved with it, the joint's score halved where clamped): a reported state always agrees with the
-reported part poses and lies inside the limits.
+reported part poses and lies inside the limits; then a part that shows few points and came loose from its hinge
+is seated back on it (``seat_parts``; a revolute state does not depend on where the centre stands). The upright
+carry in voting acts beyond the training cone plus a margin, or at the cone itself (``carry_in_cone``).
 
 Every random draw comes from ``seed`` (default 0): the same input gives the same result.
 """
@@ -336,7 +339,7 @@ class Estimator:
             here; :meth:`load` takes the model's default (on where it measured better: docs/results.md).
         carry_in_cone: the upright carry (:func:`ucope.voting.carry_upright`, with ``upright``) re-places a part as
             soon as its upright axis leaves the cone its training views held it in, not only beyond
-            :data:`ucope.voting.UPRIGHT_MARGIN_DEG` more: a laptop base seen from behind voted 34-39 degrees off
+            :data:`ucope.voting.UPRIGHT_MARGIN_DEG` more: a laptop base seen from behind voted 33-39 degrees off
             its upright while no test view held it more than 29 degrees off. Off here; :meth:`load` takes the
             model's default (on for the shipped laptop and scissors, measured in docs/results.md).
         pick_seen_parts: the scale search and the restarts keep the estimate whose smallest score over the parts
