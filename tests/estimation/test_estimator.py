@@ -680,18 +680,26 @@ def test_the_shipped_laptop_rigid_turns_a_laptop_voted_upside_down_over():
     assert errors[False][0] > 150.0 and errors[False][1] > 0.3
 
 
+def _off_and_on(model: str, key: str, index: int, normals: bool = False):
+    """Test view ``index`` of ``model``'s test split (``num=200``, seed 0) estimated with the switch ``key`` off
+    and on: ``(sample, off, on, off's part errors, on's part errors)``."""
+    from ucope.eval.evaluate import sample_errors
+
+    s = make_sample(GenerateConfig(category=model, split="test", num=200, seed=0), index)
+    args = (s["points"], s["normals"]) if normals else (s["points"],)
+    off = Estimator.load(model, **{key: False}).predict(*args)
+    on = Estimator.load(model, **{key: True}).predict(*args)
+    return s, off, on, sample_errors(off, s)["parts"], sample_errors(on, s)["parts"]
+
+
 def test_free_space_turns_a_laptop_base_hidden_behind_its_lid_and_reaches_the_settings(tiny_run, tmp_path):
     """Test view 19 of the laptop's test split, seen from behind: the base shows few points and voting tilted
     it 23 degrees off. With ``free_space`` it is turned about the hinge to under 10 degrees (measured 7.4),
     the lid is kept, a warning says so and the reported state is the boxes' own; the model's JSON default is
     taken by ``load``; the CLI flag reaches it."""
-    from ucope.eval.evaluate import sample_errors
     from ucope.geometry.kinematics import joint_state_from_poses
 
-    s = make_sample(GenerateConfig(category="laptop", split="test", num=200, seed=0), 19)
-    off = Estimator.load("laptop", free_space=False).predict(s["points"])
-    on = Estimator.load("laptop", free_space=True).predict(s["points"])
-    e_off, e_on = sample_errors(off, s)["parts"], sample_errors(on, s)["parts"]
+    _, off, on, e_off, e_on = _off_and_on("laptop", "free_space", 19)
     assert e_off[0]["rotation_deg"] > 20 and e_on[0]["rotation_deg"] < 10 and e_on[0]["translation_norm"] < 0.1
     np.testing.assert_allclose(on.parts[1].cam_from_part, off.parts[1].cam_from_part)
     assert sum("it showed few points; it was turned by" in w for w in on.warnings) == 1
@@ -707,12 +715,7 @@ def test_seating_puts_a_door_seen_from_behind_back_on_its_hinge_and_reaches_the_
     points and voting put it 0.4 m in front of the body (its rotation right). With ``seat_parts`` it hangs from
     the body's hinge again (measured 0.56 -> 0.07 of its box diagonal), a warning says so, the body and the door's
     rotation are kept; the model's JSON default is taken by ``load``; the CLI flag reaches it."""
-    from ucope.eval.evaluate import sample_errors
-
-    s = make_sample(GenerateConfig(category="dishwasher", split="test", num=200, seed=0), 161)
-    off = Estimator.load("dishwasher", seat_parts=False).predict(s["points"])
-    on = Estimator.load("dishwasher", seat_parts=True).predict(s["points"])
-    e_off, e_on = sample_errors(off, s)["parts"], sample_errors(on, s)["parts"]
+    _, off, on, e_off, e_on = _off_and_on("dishwasher", "seat_parts", 161)
     assert e_off[1]["translation_norm"] > 0.3 and e_on[1]["translation_norm"] < 0.1 and e_on[1]["rotation_deg"] < 5
     np.testing.assert_allclose(on.parts[0].cam_from_part, off.parts[0].cam_from_part)
     np.testing.assert_allclose(on.parts[1].cam_from_part[:3, :3], off.parts[1].cam_from_part[:3, :3])
@@ -727,12 +730,7 @@ def test_picking_by_the_seen_parts_keeps_the_estimate_whose_body_is_sure_and_rea
     gave 533 body points to the door (0.17) and turned the body 48 degrees (0.39), and won on the smallest score.
     Compared over the parts given points, the first stands; the model's JSON default is taken by ``load``; the
     CLI flag reaches it."""
-    from ucope.eval.evaluate import sample_errors
-
-    s = make_sample(GenerateConfig(category="dishwasher", split="test", num=200, seed=0), 181)
-    off = Estimator.load("dishwasher", pick_seen_parts=False).predict(s["points"])
-    on = Estimator.load("dishwasher", pick_seen_parts=True).predict(s["points"])
-    e_off, e_on = sample_errors(off, s)["parts"], sample_errors(on, s)["parts"]
+    _, off, on, e_off, e_on = _off_and_on("dishwasher", "pick_seen_parts", 181)
     assert e_off[0]["rotation_deg"] > 30 and e_on[0]["rotation_deg"] < 5 and e_on[0]["translation_norm"] < 0.1
     _default_and_flag(tiny_run, tmp_path, "pick_seen_parts")
 
@@ -756,12 +754,7 @@ def test_carrying_in_the_cone_brings_a_base_seen_from_behind_back_and_reaches_th
     along its hinge, is voted 39 degrees off its training upright (no test view holds it more than 29 degrees off)
     and 43 degrees off the truth. Carried as soon as it leaves the 30-degree cone, it is within 10 degrees (measured
     6.0); the model's JSON default is taken by ``load``; the CLI flag reaches it."""
-    from ucope.eval.evaluate import sample_errors
-
-    s = make_sample(GenerateConfig(category="laptop", split="test", num=200, seed=0), 118)
-    off = Estimator.load("laptop", carry_in_cone=False).predict(s["points"], s["normals"])
-    on = Estimator.load("laptop", carry_in_cone=True).predict(s["points"], s["normals"])
-    e_off, e_on = sample_errors(off, s)["parts"], sample_errors(on, s)["parts"]
+    _, off, on, e_off, e_on = _off_and_on("laptop", "carry_in_cone", 118, normals=True)
     assert e_off[0]["rotation_deg"] > 30 and e_on[0]["rotation_deg"] < 10 and e_on[0]["translation_norm"] < 0.1
     assert any("placed from its neighbour" in w for w in on.warnings)
     _default_and_flag(tiny_run, tmp_path, "carry_in_cone")

@@ -1045,8 +1045,7 @@ def carry_child_sizes(
         carried[c] = move
         done[c] |= move
         if jp.type == JointType.REVOLUTE and jp.pivot_in_parent is not None:
-            foot = T[p, :3, :3] @ (np.asarray(jp.pivot_in_parent) * S[p]) + T[p, :3, 3]
-            T[c, :3, 3] = foot - T[c, :3, :3] @ (np.asarray(jp.pivot_in_child) * S[c])
+            T[c, :3, 3] = _hinged_centre(T[p], S[p], T[c, :3, :3], S[c], jp, False)[0]
     return T, S, carried
 
 
