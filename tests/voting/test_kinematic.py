@@ -1359,3 +1359,17 @@ def test_a_part_just_outside_its_upright_cone_is_carried_only_without_the_margin
         assert carried.tolist() == [True, False]
         assert upright_angles_deg(fixed, pri)[0] <= cone
     assert tried >= 6
+
+
+def test_weak_neighbours_names_the_barely_seen_side_of_each_revolute_joint():
+    """The parts seat_weak_parts and place_weak_parts may move: the weak side of a revolute joint next to a strong
+    one (a leaf child, or the root of a two-part object); background labels do not count; prismatic joints never."""
+    from ucope.priors import CategoryPriors, JointPrior
+    from ucope.voting.kinematic import weak_neighbours
+
+    pri = _door_priors()
+    assert weak_neighbours(np.repeat([0, 1, -1], [3000, 60, 9000]), pri, 0.125, 0.25) == [(0, 1, 0)]
+    assert weak_neighbours(np.repeat([0, 1], [40, 3000]), pri, 0.125, 0.25) == [(0, 0, 1)]
+    assert weak_neighbours(np.repeat([0, 1], [2400, 600]), pri, 0.125, 0.25) == []
+    slide = CategoryPriors(category="slide", parts=pri.parts, joints=(JointPrior("prismatic", 0, 1, (0, 0, 1)),))
+    assert weak_neighbours(np.repeat([0, 1], [3000, 60]), slide, 0.125, 0.25) == []

@@ -842,6 +842,8 @@ class Estimator:
                 )
                 hidden = out.pop("pair_hidden")[0]  # (K, M, H)
         t3 = time.perf_counter()
+        carry_margin = 0.0 if self.carry_in_cone else UPRIGHT_MARGIN_DEG
+        camera = centre * (1.0 - scale)  # the cloud was scaled about centre (the roll turns about the camera)
         if cfg.head == "regression":
             v = regressed_object(
                 p_net,
@@ -851,7 +853,7 @@ class Estimator:
                 refine=self.refine,
                 resolve_flips=self.resolve_flips,
                 upright=self.upright,
-                carry_margin_deg=0.0 if self.carry_in_cone else UPRIGHT_MARGIN_DEG,
+                carry_margin_deg=carry_margin,
             )
         else:
 
@@ -870,7 +872,7 @@ class Estimator:
                 options=self.options,
                 resolve_flips=self.resolve_flips,
                 upright=self.upright,
-                carry_margin_deg=0.0 if self.carry_in_cone else UPRIGHT_MARGIN_DEG,
+                carry_margin_deg=carry_margin,
                 axis_heads=axis_heads,
                 shapes=self.shapes,
                 score_filter=self.score_filter,
@@ -891,7 +893,7 @@ class Estimator:
                 part_labels,
                 self.priors,
                 confidence=object_conf,
-                camera=centre * (1.0 - scale),
+                camera=camera,
             )
         feats = part_features(
             v, labels, seg_prob, p_net, num_input, [j.parent for j in self.priors.joints], [j.child for j in self.priors.joints]
@@ -965,7 +967,7 @@ class Estimator:
                 p_net,
                 part_labels,
                 self.priors,
-                camera=centre * (1.0 - scale),  # the cloud was scaled about centre (the roll turns about the camera)
+                camera=camera,
                 upright_margin_deg=UPRIGHT_MARGIN_DEG if self.upright else None,
             )
         if self.turn_children and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
@@ -978,7 +980,7 @@ class Estimator:
                 part_labels,
                 self.priors,
                 confidence=object_conf,
-                camera=centre * (1.0 - scale),
+                camera=camera,
             )
         if self.priors.num_joints > 0:  # the states of the boxes as they now stand, inside the limits
             v = dict(v)

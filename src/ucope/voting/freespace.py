@@ -28,8 +28,7 @@ from ..errors import InputError
 from ..geometry.kinematics import joint_state_from_poses
 from ..geometry.transforms import axis_angle_transform
 from ..priors import CategoryPriors
-from ..vocab import JointType
-from .kinematic import UPRIGHT_MARGIN_DEG
+from .kinematic import UPRIGHT_MARGIN_DEG, weak_neighbours
 
 __all__ = [
     "place_weak_parts",
@@ -189,44 +188,38 @@ def place_weak_parts(
         raise InputError(f"upright_margin_deg must be finite or None, got {upright_margin_deg!r}")
     turned = np.zeros(K)
     on_part = (lab >= 0) & (lab < K)
-    count = np.bincount(lab[on_part], minlength=K)
-    total = max(int(count.sum()), 1)
-    parents = {jp.parent for jp in priors.joints}
     steps = np.radians(np.arange(step_deg, max_turn_deg + 1e-9, step_deg))
     angles = np.concatenate([[0.0], np.stack([steps, -steps], 1).reshape(-1)])  # 0, +s, -s, +2s, ...: ties go to the smaller turn
-    for j, jp in enumerate(priors.joints):  # a handful of joints; the work per joint is vectorised
-        if jp.type != JointType.REVOLUTE or not np.isfinite(piv[j]).all():
+    for j, w, _ in weak_neighbours(lab, priors, weak_share, strong_share):  # the work per joint is vectorised
+        jp = priors.joints[j]
+        if turned[w] != 0.0 or not np.isfinite(piv[j]).all():
             continue
-        options = ([(jp.child, jp.parent)] if jp.child not in parents else []) + ([(jp.parent, jp.child)] if K == 2 else [])
-        for w, other in options:
-            if turned[w] != 0.0 or not (count[w] < weak_share * total and count[other] >= strong_share * total):
-                continue
-            axis = u[j] / np.linalg.norm(u[j])
-            cand = axis_angle_transform(axis, piv[j], angles) @ T[w]  # (A, 4, 4) the part turned about the joint line
-            Tp = np.broadcast_to(T[jp.parent], cand.shape) if w == jp.child else cand
-            Tc = cand if w == jp.child else np.broadcast_to(T[jp.child], cand.shape)
-            q = np.asarray(joint_state_from_poses(Tp, Tc, np.broadcast_to(axis, (len(angles), 3)), "revolute"), np.float64)
-            lo, hi = jp.limits
-            ok = np.ones(len(angles), dtype=bool)
-            if lo is not None:
-                ok &= q >= lo - 1e-9
-            if hi is not None:
-                ok &= q <= hi + 1e-9
-            pp = priors.parts[w]
-            if upright_margin_deg is not None and pp.upright_axis is not None and pp.upright_cone_deg is not None:
-                tilt = np.degrees(np.arccos(np.clip(cand[:, :3, pp.upright_axis] @ np.asarray(pp.upright_in_cam), -1.0, 1.0)))
-                ok &= tilt <= pp.upright_cone_deg + upright_margin_deg
-            ok[0] = True  # the voted angle stays a candidate (the caller clamps its state)
-            others = pts[on_part & (lab != w)]
-            own = pts[lab == w]
-            hidden, misfit = np.zeros(len(angles)), np.zeros(len(angles))
-            if len(others):
-                hidden = segments_through_box(cand, SHRINK * S[w], others, camera=cam).mean(1)
-            if len(own):
-                misfit = np.median(box_surface_distance(cand, S[w], own), axis=1) / np.linalg.norm(S[w])
-            cost = np.where(ok, hidden + misfit + turn_cost * np.abs(angles), np.inf)
-            best = int(np.argmin(cost))
-            if best != 0:
-                T[w] = cand[best]
-                turned[w] = angles[best]
+        axis = u[j] / np.linalg.norm(u[j])
+        cand = axis_angle_transform(axis, piv[j], angles) @ T[w]  # (A, 4, 4) the part turned about the joint line
+        Tp = np.broadcast_to(T[jp.parent], cand.shape) if w == jp.child else cand
+        Tc = cand if w == jp.child else np.broadcast_to(T[jp.child], cand.shape)
+        q = np.asarray(joint_state_from_poses(Tp, Tc, np.broadcast_to(axis, (len(angles), 3)), "revolute"), np.float64)
+        lo, hi = jp.limits
+        ok = np.ones(len(angles), dtype=bool)
+        if lo is not None:
+            ok &= q >= lo - 1e-9
+        if hi is not None:
+            ok &= q <= hi + 1e-9
+        pp = priors.parts[w]
+        if upright_margin_deg is not None and pp.upright_axis is not None and pp.upright_cone_deg is not None:
+            tilt = np.degrees(np.arccos(np.clip(cand[:, :3, pp.upright_axis] @ np.asarray(pp.upright_in_cam), -1.0, 1.0)))
+            ok &= tilt <= pp.upright_cone_deg + upright_margin_deg
+        ok[0] = True  # the voted angle stays a candidate (the caller clamps its state)
+        others = pts[on_part & (lab != w)]
+        own = pts[lab == w]
+        hidden, misfit = np.zeros(len(angles)), np.zeros(len(angles))
+        if len(others):
+            hidden = segments_through_box(cand, SHRINK * S[w], others, camera=cam).mean(1)
+        if len(own):
+            misfit = np.median(box_surface_distance(cand, S[w], own), axis=1) / np.linalg.norm(S[w])
+        cost = np.where(ok, hidden + misfit + turn_cost * np.abs(angles), np.inf)
+        best = int(np.argmin(cost))
+        if best != 0:
+            T[w] = cand[best]
+            turned[w] = angles[best]
     return T, turned

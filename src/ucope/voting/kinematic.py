@@ -90,6 +90,7 @@ __all__ = [
     "stack_hidden_children",
     "turn_thin_children",
     "seat_weak_parts",
+    "weak_neighbours",
     "SEAT_WEAK_SHARE",
     "SEAT_STRONG_SHARE",
     "resolve_front_flips",
@@ -874,6 +875,26 @@ def _hinged_centre(To: np.ndarray, So: np.ndarray, Rk: np.ndarray, Sk: np.ndarra
     return foot - Rk @ (np.asarray(f_k) * Sk), foot
 
 
+def weak_neighbours(labels, priors: CategoryPriors, weak_share: float, strong_share: float) -> list[tuple[int, int, int]]:
+    """``[(j, w, o)]``: for each revolute joint ``j`` (in the priors' order) whose child is a leaf, or either of
+    whose parts is the root of a two-part object, a part ``w`` (the child first) with fewer than ``weak_share``
+    of the object's labelled points next to its neighbour ``o`` across the joint with at least ``strong_share``
+    (``labels``: ``(P,)`` integers, values outside ``[0, K)`` belong to no part). The parts that
+    :func:`seat_weak_parts` and :func:`ucope.voting.freespace.place_weak_parts` may move."""
+    K = priors.num_parts
+    lab = np.asarray(labels)
+    count = np.bincount(lab[(lab >= 0) & (lab < K)].astype(np.int64), minlength=K)
+    total = max(int(count.sum()), 1)
+    parents = {jp.parent for jp in priors.joints}
+    out = []
+    for j, jp in enumerate(priors.joints):  # a handful of joints
+        if jp.type != JointType.REVOLUTE:
+            continue
+        options = ([(jp.child, jp.parent)] if jp.child not in parents else []) + ([(jp.parent, jp.child)] if K == 2 else [])
+        out += [(j, w, o) for w, o in options if count[w] < weak_share * total and count[o] >= strong_share * total]
+    return out
+
+
 SEAT_WEAK_SHARE = 0.125
 """A part is seated on its hinge (:func:`seat_weak_parts`) only where fewer than this share of the points segmented
 as the object are its own ..."""
@@ -946,22 +967,15 @@ def seat_weak_parts(
     if not min_gap >= 0.0:
         raise InputError(f"min_gap must be >= 0, got {min_gap!r}")
     seated = np.zeros(K, dtype=bool)
-    on_part = (lab >= 0) & (lab < K)
-    count = np.bincount(lab[on_part].astype(np.int64), minlength=K)
-    total = max(int(count.sum()), 1)
-    parents = {jp.parent for jp in priors.joints}
-    for j, jp in enumerate(priors.joints):  # a handful of joints
-        if jp.type != JointType.REVOLUTE or jp.pivot_in_parent is None or jp.pivot_in_child is None:
+    for j, w, o in weak_neighbours(lab, priors, weak_share, strong_share):
+        jp = priors.joints[j]
+        if jp.pivot_in_parent is None or jp.pivot_in_child is None or seated[w] or seated[o]:
             continue
-        options = ([(jp.child, jp.parent)] if jp.child not in parents else []) + ([(jp.parent, jp.child)] if K == 2 else [])
-        for w, o in options:
-            if seated[w] or seated[o] or not (count[w] < weak_share * total and count[o] >= strong_share * total):
-                continue
-            centre, foot = _hinged_centre(T[o], S[o], T[w, :3, :3], S[w], jp, w == jp.parent)
-            if np.linalg.norm(centre - T[w, :3, 3]) <= min_gap * np.linalg.norm(S[w]):
-                continue
-            T[w, :3, 3], piv[j] = centre, foot
-            seated[w] = True
+        centre, foot = _hinged_centre(T[o], S[o], T[w, :3, :3], S[w], jp, w == jp.parent)
+        if np.linalg.norm(centre - T[w, :3, 3]) <= min_gap * np.linalg.norm(S[w]):
+            continue
+        T[w, :3, 3], piv[j] = centre, foot
+        seated[w] = True
     return T, piv, seated
 
 
