@@ -3,6 +3,7 @@
     python scripts/update_view_priors.py --model src/ucope/pretrained/laptop.json --data DATA [--num 2000]
     python scripts/update_view_priors.py --model ... --data DATA --extent-only
     python scripts/update_view_priors.py --model ... --data DATA --stacks-only
+    python scripts/update_view_priors.py --model ... --data DATA --slides-only
 
 ``ucope train`` measures these priors (``PartPrior.upright_*`` and ``seen_extent``,
 ``JointPrior.pivot_in_parent`` / ``pivot_in_child``; with ``--radius`` also ``radius_typical_m``:
@@ -13,6 +14,9 @@ where ``fit_extents`` / ``anchor_faces`` are on). ``--extent-only`` writes the s
 child size ratios alone and records them in ``info.seen_extent_from``; ``--stacks-only`` writes the stacks of
 prismatic children alone (``CategoryPriors.stacks``, :func:`ucope.priors.stack_statistics`: the drawers of a
 chest) and records them in ``info.stacks_from``; without either flag the stacks are written with the rest.
+``--slides-only`` writes how far each prismatic child slides for its size alone
+(``JointPrior.max_state_over_extent``, :func:`ucope.priors.max_state_over_extent`) and records them in
+``info.slides_from``.
 ``DATA`` is a data set of the model's category made by ``ucope generate`` (training split). The JSON is
 rewritten atomically; ``info.view_priors_from`` records the data set and how many views were used.
 """
@@ -30,10 +34,10 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from ucope.data.dataset import load_dataset  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
-from ucope.priors import CategoryPriors, measure_priors, stack_statistics  # noqa: E402
+from ucope.priors import CategoryPriors, max_state_over_extent, measure_priors, stack_statistics  # noqa: E402
 
 PART_FIELDS = ("upright_axis", "upright_in_cam", "upright_cone_deg", "seen_extent", "faced_gap")
-JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child", "child_size_ratio", "child_size_spread")
+JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child", "child_size_ratio", "child_size_spread", "max_state_over_extent")
 EXTENT_JOINT_FIELDS = ("child_size_ratio", "child_size_spread")
 
 
@@ -54,9 +58,14 @@ def main(argv=None) -> int:
         action="store_true",
         help="write only the stacks of prismatic children (CategoryPriors.stacks: drawers one above the other)",
     )
+    ap.add_argument(
+        "--slides-only",
+        action="store_true",
+        help="write only how far prismatic children slide for their size (JointPrior.max_state_over_extent)",
+    )
     args = ap.parse_args(argv)
-    if args.extent_only and args.stacks_only:
-        print("error: --extent-only and --stacks-only exclude each other", file=sys.stderr)
+    if args.extent_only + args.stacks_only + args.slides_only > 1:
+        print("error: --extent-only, --stacks-only and --slides-only exclude each other", file=sys.stderr)
         return 2
     meta = read_json(args.model)
     pri = meta["config"]["priors"]
@@ -66,6 +75,23 @@ def main(argv=None) -> int:
         print(f"error: {args.data} holds {have!r} views, the model is a {pri['category']!r} model", file=sys.stderr)
         return 2
     made = {k: ds.meta.get(k) for k in ("split", "seed", "num", "generator_version")}  # how to make the views again
+    if args.slides_only:
+        picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), args.num)).round().astype(np.int64))]
+        T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
+        S = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
+        J = len(pri["joints"])
+        U = np.stack([np.asarray(s["joint_axis"], np.float64).reshape(J, 3) for s in picked])
+        Q = np.stack([np.asarray(s["joint_state"], np.float64).reshape(J) for s in picked])
+        for j, jd in enumerate(pri["joints"]):
+            ratio = None
+            if jd["type"] == "prismatic":
+                ratio = max_state_over_extent(T[:, jd["child"]], S[:, jd["child"]], U[:, j], Q[:, j])
+            jd["max_state_over_extent"] = ratio
+            print(f"joint {jd['parent']}->{jd['child']} ({jd['type']}): max state over extent {ratio}")
+        CategoryPriors.from_dict(pri)  # refuse to write priors that do not load
+        meta.setdefault("info", {})["slides_from"] = {"data": Path(args.data).name, **made, "num_samples": len(picked)}
+        atomic_write_json(args.model, meta)
+        return 0
     if args.stacks_only:
         picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), args.num)).round().astype(np.int64))]
         T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])

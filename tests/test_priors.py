@@ -307,3 +307,29 @@ def test_bad_stacks_are_refused():
     for entry in ({"parent": 0, "axis": 1}, {**ok, "colour": "red"}, {**ok, "children": [1]}):
         with pytest.raises(InputError, match="malformed category priors|two or more"):
             CategoryPriors.from_dict({**form, "stacks": [entry]})
+
+
+def test_max_state_over_extent_is_the_largest_slide_for_the_drawer_depth_and_round_trips():
+    """On drawer views the largest state over the drawer's depth (its box extent along the slide) is at most 0.75
+    (three-quarter extension slides: the generator's upper limit) and close to it; a plain per-sample reference
+    agrees; revolute joints get none; the value survives to_dict / from_dict, and a revolute joint or a
+    non-positive value is refused by name."""
+    samples = _samples("drawer")
+    pri = measure_priors(samples, "drawer", _structure("drawer"))
+    for j, jp in enumerate(pri.joints):
+        want = max(
+            s["joint_state"][j]
+            / float(np.abs(s["cam_from_part"][jp.child][:3, :3].T @ s["joint_axis"][j]) @ s["size_m"][jp.child])
+            for s in samples
+        )
+        assert jp.max_state_over_extent == pytest.approx(want, rel=1e-9)
+        assert 0.4 < jp.max_state_over_extent <= 0.75 + 1e-9
+    again = CategoryPriors.from_dict(pri.to_dict())
+    assert [jp.max_state_over_extent for jp in again.joints] == [jp.max_state_over_extent for jp in pri.joints]
+    assert all(
+        jp.max_state_over_extent is None for jp in measure_priors(_samples("laptop"), "laptop", _structure("laptop")).joints
+    )
+    with pytest.raises(InputError, match="max_state_over_extent"):
+        JointPrior(JointType.REVOLUTE, 0, 1, (1.0, 0.0, 0.0), max_state_over_extent=0.5)
+    with pytest.raises(InputError, match="max_state_over_extent"):
+        JointPrior(JointType.PRISMATIC, 0, 1, (0.0, 0.0, 1.0), max_state_over_extent=0.0)

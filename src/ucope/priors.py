@@ -46,6 +46,7 @@ __all__ = [
     "stack_statistics",
     "STACK_MAX_OVERLAP",
     "measure_priors",
+    "max_state_over_extent",
     "placement_offsets",
     "pivot_offsets",
     "upright_statistics",
@@ -221,6 +222,10 @@ class JointPrior:
             deviation over that mean (a dishwasher door as wide as its body: 0.99, spread 0.004); where the
             spread is small, a child's extent follows its parent's measured one
             (:func:`ucope.voting.kinematic.carry_child_sizes`). ``None`` when not measured.
+        max_state_over_extent: prismatic joints: the largest state over the training views divided by the child's
+            box extent along the joint's axis (a drawer on three-quarter extension slides: 0.75): how far a child
+            the view hides can be pulled out (:func:`ucope.voting.slide_weak_children`). ``None`` for revolute
+            joints or when not measured.
         pivot_in_parent, pivot_in_child: revolute joints: ``(3,)`` the foot of the perpendicular from the
             parent's box centre to the joint axis, in the parent's and in the child's frame, each divided
             elementwise by that part's box extents (mean over the training views, :func:`pivot_offsets`);
@@ -241,6 +246,7 @@ class JointPrior:
     child_size_spread: tuple[float, float, float] | None = None
     pivot_in_parent: tuple[float, float, float] | None = None
     pivot_in_child: tuple[float, float, float] | None = None
+    max_state_over_extent: float | None = None
 
     def __post_init__(self) -> None:
         jt = JointType.parse(self.type)
@@ -287,6 +293,14 @@ class JointPrior:
                 if v.shape != (3,):
                     raise InputError(f"joint {self.parent}->{self.child}: {name} needs 3 values")
                 object.__setattr__(self, name, tuple(float(x) for x in v))
+        if self.max_state_over_extent is not None:
+            m = float(_finite(self.max_state_over_extent, "max_state_over_extent"))
+            if jt != JointType.PRISMATIC or m <= 0:
+                raise InputError(
+                    f"joint {self.parent}->{self.child}: max_state_over_extent must be a positive number on a prismatic joint, "
+                    f"got {self.max_state_over_extent!r} on a {jt.label} joint"
+                )
+            object.__setattr__(self, "max_state_over_extent", m)
 
     @property
     def axis(self) -> np.ndarray:
@@ -308,6 +322,7 @@ class JointPrior:
             "child_size_spread": None if self.child_size_spread is None else list(self.child_size_spread),
             "pivot_in_parent": None if self.pivot_in_parent is None else list(self.pivot_in_parent),
             "pivot_in_child": None if self.pivot_in_child is None else list(self.pivot_in_child),
+            "max_state_over_extent": self.max_state_over_extent,
         }
 
 
@@ -548,6 +563,7 @@ class CategoryPriors:
                     child_size_spread=_tuple_or_none(j.get("child_size_spread")),
                     pivot_in_parent=_tuple_or_none(j.get("pivot_in_parent")),
                     pivot_in_child=_tuple_or_none(j.get("pivot_in_child")),
+                    max_state_over_extent=j.get("max_state_over_extent"),
                 )
                 for j in d["joints"]
             )
@@ -862,6 +878,26 @@ def stack_statistics(cam_from_part, size_m, joints: Sequence[JointPrior]) -> tup
     return tuple(stacks)
 
 
+def max_state_over_extent(cam_from_child, size_child, axis_cam, state) -> float | None:
+    """The largest prismatic state over the child's box extent along the joint's axis, over samples.
+
+    Args:
+        cam_from_child: ``(S, 4, 4)`` the child's true poses; size_child: ``(S, 3)`` its box extents (metres);
+        axis_cam: ``(S, 3)`` the joint's axis (same frame); state: ``(S,)`` the joint's states (metres).
+
+    Returns:
+        ``max(state / extent)`` over the samples whose ratio is positive and finite (``None`` where none is).
+    """
+    R = np.asarray(cam_from_child, np.float64)[:, :3, :3]
+    u = np.asarray(axis_cam, np.float64)
+    u = u / np.maximum(np.linalg.norm(u, axis=-1, keepdims=True), 1e-12)
+    ext = np.einsum("si,si->s", np.abs(np.einsum("sji,sj->si", R, u)), np.asarray(size_child, np.float64))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.asarray(state, np.float64) / ext
+    r = r[np.isfinite(r) & (r > 0)]
+    return float(r.max()) if len(r) else None
+
+
 def measure_priors(
     samples: Sequence[Mapping[str, Any]],
     category: str,
@@ -882,7 +918,8 @@ def measure_priors(
     scale = mean cloud radius, the range of :func:`cloud_radius` and its 2nd-98th percentiles, prismatic
     zero offsets and part placements at the true poses (with their spread for prismatic joints), joint
     limits = the declared limits widened to every state seen, revolute pivots in the parts' unit boxes
-    (:func:`pivot_offsets`), the upright axes (:func:`upright_statistics`), the seen extents
+    (:func:`pivot_offsets`), how far prismatic children slide for their size (:func:`max_state_over_extent`), the
+    upright axes (:func:`upright_statistics`), the seen extents
     (:func:`seen_extent_statistics`), the faced gaps (:func:`faced_gap_statistics`) and the stacks of prismatic
     children (:func:`stack_statistics`).
     Raises :class:`InputError` on an empty data set or samples that disagree with the structure.
@@ -939,6 +976,7 @@ def measure_priors(
             )
             if jd["type"] == JointType.PRISMATIC:
                 extra["child_in_parent_spread"] = tuple(cip.std(0))
+                extra["max_state_over_extent"] = max_state_over_extent(T[:, c], size[:, c], U[:, j], Q[:, j])
             if jd["type"] == JointType.REVOLUTE and np.all(np.isfinite(P[:, j])):
                 pp, pc = pivot_offsets(T, size, P[:, j], jd["axis_in_parent"], p, c)
                 extra.update(pivot_in_parent=tuple(pp.mean(0)), pivot_in_child=tuple(pc.mean(0)))

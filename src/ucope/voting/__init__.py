@@ -27,6 +27,8 @@ measured accuracy.
 * :func:`turn_thin_children`: a thin revolute child (a door, a lid) turned about its joint to lie along its points.
 * :func:`resolve_front_flips`: a cabinet turned round, its drawers with it, where its drawers' points say its front
   is its back.
+* :func:`slide_weak_children` (:func:`exposed_surface_share`): a hidden drawer voted pulled out where the camera would
+  have seen it, slid back to the nearest state the view allows.
 * :func:`settle_joint_states`: joint states read off the final boxes and clamped into the limits.
 * :func:`vote_object`: parts + joints + joint states (+ the flip checks, the optional refinement).
 * :func:`grow_to_points`: boxes widened to hold the points segmented as their part (objects of unseen shapes).
@@ -46,7 +48,7 @@ from .bins import decode_bins
 from .centre import CentreOptions, circle_distance, vote_centre
 from .extent import anchor_faced_faces, fit_seen_extents, grow_to_points
 from .faces import align_parts_to_faces, align_to_faces
-from .freespace import place_weak_parts
+from .freespace import exposed_surface_share, place_weak_parts, slide_weak_children
 from .joints import JointVote, joint_from_points, vote_joints
 from .kinematic import (
     UPRIGHT_MARGIN_DEG,
@@ -118,5 +120,7 @@ __all__ = [
     "align_to_faces",
     "align_parts_to_faces",
     "place_weak_parts",
+    "slide_weak_children",
+    "exposed_surface_share",
     "UPRIGHT_MARGIN_DEG",
 ]
