@@ -93,6 +93,7 @@ SWITCHES = {
     "anchor_faces": ("anchor the root part's faced faces to its points", "docs/results.md"),
     "free_space": ("turn parts they barely see about their joint to where the points say they can be", "docs/results.md"),
     "seat_parts": ("put parts they barely see that stand off their hinge back on it", "docs/results.md"),
+    "free_slides": ("slide hidden prismatic children back to where the camera would not have seen them", "docs/results.md"),
     "pick_seen_parts": ("compare their estimates by the parts given points only", "docs/results.md"),
     "carry_in_cone": ("carry a part from its neighbour as soon as it leaves its training upright cone", "docs/results.md"),
 }

@@ -63,6 +63,7 @@ FREE_CATS=${FREE_CATS-"laptop dishwasher"}  # parts barely seen turned about the
 SEAT_CATS=${SEAT_CATS-"dishwasher"}  # parts barely seen and off their hinge seated back on it (docs/results.md)
 PICK_CATS=${PICK_CATS-"dishwasher"}  # estimates compared by the parts given points only (docs/results.md)
 CONE_CATS=${CONE_CATS-"laptop scissors"}  # parts carried as soon as they leave their upright cone (docs/results.md)
+SLIDE_CATS=${SLIDE_CATS-"drawer"}  # hidden drawers slid back to where the camera would not have seen them (docs/results.md)
 OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
@@ -203,7 +204,7 @@ calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and sc
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
     --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
-    --free-space $FREE_CATS --seat-parts $SEAT_CATS --pick-seen-parts $PICK_CATS --carry-in-cone $CONE_CATS --restarts $RESTART_CATS
+    --free-space $FREE_CATS --seat-parts $SEAT_CATS --free-slides $SLIDE_CATS --pick-seen-parts $PICK_CATS --carry-in-cone $CONE_CATS --restarts $RESTART_CATS
   if [[ " $DENOISE_CATS " == *" $c "* ]]; then
     "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
   fi
@@ -338,7 +339,7 @@ if [ "$PACKAGE" = 1 ]; then
   # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
     --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
-    --free-space $FREE_CATS --seat-parts $SEAT_CATS --pick-seen-parts $PICK_CATS --carry-in-cone $CONE_CATS --restarts $RESTART_CATS
+    --free-space $FREE_CATS --seat-parts $SEAT_CATS --free-slides $SLIDE_CATS --pick-seen-parts $PICK_CATS --carry-in-cone $CONE_CATS --restarts $RESTART_CATS
   for c in $CATS; do
     rm -f "$WORK/reports/$c.json"
     "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet

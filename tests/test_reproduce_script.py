@@ -25,6 +25,7 @@ LISTS = {  # the script's variable -> whether a shipped model's defaults have th
     "ANCHOR_CATS": lambda d: bool(d.get("anchor_faces", False)),
     "FREE_CATS": lambda d: bool(d.get("free_space", False)),
     "SEAT_CATS": lambda d: bool(d.get("seat_parts", False)),
+    "SLIDE_CATS": lambda d: bool(d.get("free_slides", False)),
     "PICK_CATS": lambda d: bool(d.get("pick_seen_parts", False)),
     "CONE_CATS": lambda d: bool(d.get("carry_in_cone", False)),
     "RESTART_CATS": lambda d: int(d.get("restarts", 0)) > 0,
@@ -53,7 +54,7 @@ def test_every_list_reaches_the_packaging():
     assert len(calls) == 3 and len(setting) == 2
     flags = [("--remove-plane", "PLANE_CATS"), ("--grow-boxes", "GROW_CATS"), ("--align-faces", "ALIGN_CATS")]
     flags += [("--wide-scale-search", "WIDE_CATS"), ("--fit-extents", "FIT_CATS"), ("--anchor-faces", "ANCHOR_CATS")]
-    flags += [("--free-space", "FREE_CATS"), ("--seat-parts", "SEAT_CATS")]
+    flags += [("--free-space", "FREE_CATS"), ("--seat-parts", "SEAT_CATS"), ("--free-slides", "SLIDE_CATS")]
     flags += [("--pick-seen-parts", "PICK_CATS"), ("--carry-in-cone", "CONE_CATS"), ("--restarts", "RESTART_CATS")]
     for call in setting:
         for flag, var in flags:

@@ -573,6 +573,14 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         "measured better, docs/results.md)",
     )
     p.add_argument(
+        "--free-slides",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="slide a prismatic child that shows no points (a hidden drawer) back to the nearest state where the "
+        "camera would not have seen it (default: the model's own; on for the shipped models where it measured "
+        "better, docs/results.md)",
+    )
+    p.add_argument(
         "--denoise-above",
         type=float,
         default=None,

@@ -203,6 +203,7 @@ def estimator_options(args: argparse.Namespace) -> dict:
         align_faces=getattr(args, "align_faces", None),
         free_space=getattr(args, "free_space", None),
         seat_parts=getattr(args, "seat_parts", None),
+        free_slides=getattr(args, "free_slides", None),
         pick_seen_parts=getattr(args, "pick_seen_parts", None),
         carry_in_cone=getattr(args, "carry_in_cone", None),
         recrop=not getattr(args, "no_recrop", False),

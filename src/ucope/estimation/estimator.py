@@ -32,10 +32,11 @@ are (``anchor_faces``), a parent's box is widened across its prismatic children'
 (``hold_children``), each prismatic child is given the depth its parent says it has, its front kept
 (``carry_depths``), put where its parent always held it across the joint's axis (``place_children``), slid
 along it to where its points end (``slide_fronts``), and, where a view hides it, stacked against a seen sibling
-(``stack_children``); each thin revolute child is turned about its joint's axis to lie along its own points
-(``turn_children``). Last, every joint state is read off the final boxes and clamped into the category's limits
-(the child moved with it, the joint's score halved where clamped): a reported state always agrees with the
-reported part poses and lies inside the limits; then a part that shows few points and came loose from its hinge
+(``stack_children``) and slid back to the nearest state the view leaves room for (``free_slides``); each thin
+revolute child is turned about its joint's axis to lie along its own points (``turn_children``). Last, every
+joint state is read off the final boxes and clamped into the category's limits (the child moved with it, the
+joint's score halved where clamped): a reported state always agrees with the reported part poses and lies
+inside the limits; then a part that shows few points and came loose from its hinge
 is seated back on it (``seat_parts``; a revolute state does not depend on where the centre stands). The upright
 carry in voting acts beyond the training cone plus a margin, or at the cone itself (``carry_in_cone``).
 
@@ -79,6 +80,7 @@ from ..voting import (
     seat_weak_parts,
     settle_joint_states,
     slide_to_fronts,
+    slide_weak_children,
     stack_hidden_children,
     turn_thin_children,
     vote_object,
@@ -405,6 +407,11 @@ class Estimator:
             upright axis where the children's points lie behind its centre, or where its front faces the camera
             and they show almost no points (:func:`ucope.voting.resolve_front_flips`), right after voting; on by
             default, measured in docs/results.md.
+        free_slides: slide each prismatic child that shows fewer than ``SLIDE_MIN_POINTS`` points (a hidden drawer)
+            back to the nearest state where the camera would not have seen its box (:func:`ucope.voting.
+            slide_weak_children`), after ``stack_children``; where the view hides every state, it keeps its voted
+            one. Off here; :meth:`load` takes the model's default (on for the shipped drawer, measured in
+            docs/results.md).
         seat_parts: put the centre of a part that shows few points (a closed door seen from behind) and stands off
             its hinge where its revolute joint's axis meets its well-seen neighbour's box
             (:func:`ucope.voting.seat_weak_parts`), after the joint states are read off the boxes. Off here;
@@ -459,6 +466,7 @@ class Estimator:
         turn_children: bool = True,
         flip_fronts: bool = True,
         seat_parts: bool = False,
+        free_slides: bool = False,
         restarts: int = 0,
     ):
         if not isinstance(model, UCOPENet):
@@ -517,6 +525,7 @@ class Estimator:
         self.turn_children = bool(turn_children)
         self.flip_fronts = bool(flip_fronts)
         self.seat_parts = bool(seat_parts)
+        self.free_slides = bool(free_slides)
         self.restarts = int(restarts)
 
     # ------------------------------------------------------------------------------------- loading
@@ -533,6 +542,7 @@ class Estimator:
         align_faces: bool | None = None,
         free_space: bool | None = None,
         seat_parts: bool | None = None,
+        free_slides: bool | None = None,
         wide_scale_search: bool | None = None,
         pick_seen_parts: bool | None = None,
         carry_in_cone: bool | None = None,
@@ -544,9 +554,9 @@ class Estimator:
 
         ``refine=None`` / ``remove_plane=None`` / ``denoise_above_m="model"`` / ``grow_boxes=None`` /
         ``fit_extents=None`` / ``anchor_faces=None`` / ``align_faces=None`` / ``free_space=None`` /
-        ``seat_parts=None`` / ``wide_scale_search=None`` / ``pick_seen_parts=None`` / ``carry_in_cone=None`` /
-        ``restarts=None`` take the model's own defaults (``info.defaults`` of its JSON, set when it was packaged
-        where they measured better). Other keyword arguments: as the constructor."""
+        ``seat_parts=None`` / ``free_slides=None`` / ``wide_scale_search=None`` / ``pick_seen_parts=None`` /
+        ``carry_in_cone=None`` / ``restarts=None`` take the model's own defaults (``info.defaults`` of its JSON, set
+        when it was packaged where they measured better). Other keyword arguments: as the constructor."""
         if not isinstance(model, str | os.PathLike) or not str(model):
             raise InputError(f"model must be a shipped model's name or a path, got {model!r}")
         path = find_model(model)
@@ -562,6 +572,7 @@ class Estimator:
             align_faces=align_faces,
             free_space=free_space,
             seat_parts=seat_parts,
+            free_slides=free_slides,
             wide_scale_search=wide_scale_search,
             pick_seen_parts=pick_seen_parts,
             carry_in_cone=carry_in_cone,
@@ -957,6 +968,19 @@ class Estimator:
             v["cam_from_part"], v["size_m"], _ = stack_hidden_children(
                 v["cam_from_part"], v["size_m"], part_labels, self.priors, confidence=object_conf
             )
+        if self.free_slides and self.priors.num_joints > 0:  # after the stack: a hidden drawer's height as it stands
+            v = dict(v)
+            v["cam_from_part"], slid = slide_weak_children(
+                v["cam_from_part"],
+                v["size_m"],
+                v["joint_axis"],
+                p_net,
+                part_labels,
+                self.priors,
+                camera=camera,
+                confidence=object_conf,
+            )
+            v["slid_m"] = slid / scale  # metres of the cloud as given
         if self.free_space and self.priors.num_joints > 0:  # after the box steps: the boxes as they stand
             v = dict(v)
             v["cam_from_part"], v["free_space_turned"] = place_weak_parts(
@@ -1013,6 +1037,11 @@ class Estimator:
                 f"part {parts[k].label!r}: it showed few points; it was turned by {np.degrees(v['free_space_turned'][k]):.0f} "
                 "degrees about its joint to where its box hides none of the points the camera sees and its own points "
                 "lie on it"
+            )
+        for k in np.flatnonzero(v.get("slid_m", [])):
+            warnings.append(
+                f"part {parts[k].label!r}: it showed no points and was voted where the camera would have seen it; it was "
+                f"slid {v['slid_m'][k]:+.3f} m along its joint to the nearest state the view leaves room for"
             )
         for k in np.flatnonzero(v.get("seated", [])):
             warnings.append(

@@ -417,6 +417,7 @@ def evaluate(
             "turn_children": getattr(estimator, "turn_children", False),
             "flip_fronts": getattr(estimator, "flip_fronts", False),
             "seat_parts": getattr(estimator, "seat_parts", False),
+            "free_slides": getattr(estimator, "free_slides", False),
             "pick_seen_parts": getattr(estimator, "pick_seen_parts", False),
             "carry_in_cone": getattr(estimator, "carry_in_cone", False),
             "remove_plane": getattr(estimator, "remove_plane", False),
