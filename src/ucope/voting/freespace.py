@@ -116,6 +116,34 @@ def box_surface_distance(cam_from_box, size_m, points) -> np.ndarray:
     return outside + np.abs(np.minimum(q.max(-1), 0.0))
 
 
+def _checked_scene(cam_from_part, size_m, joint_axis, points, labels, priors: CategoryPriors, camera, joint_pivot=None):
+    """The inputs shared by :func:`place_weak_parts` and :func:`slide_weak_children` as float64 arrays (the poses a
+    copy), checked: ``(T, S, u, pivots or None, points, labels, camera)``. Pivots may hold NaN (a joint without one)."""
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.asarray(size_m, dtype=np.float64)
+    u = np.asarray(joint_axis, dtype=np.float64)
+    piv = None if joint_pivot is None else np.asarray(joint_pivot, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64)
+    lab = np.asarray(labels)
+    K, J = priors.num_parts, priors.num_joints
+    if T.shape != (K, 4, 4) or S.shape != (K, 3) or u.shape != (J, 3) or (piv is not None and piv.shape != (J, 3)):
+        names, want = "cam_from_part, size_m, joint_axis", f"({K}, 4, 4), ({K}, 3), ({J}, 3)"
+        got = f"{T.shape}, {S.shape}, {u.shape}" + ("" if piv is None else f", {piv.shape}")
+        if piv is not None:
+            names, want = names + " and joint_pivot", want + f", ({J}, 3)"
+        raise InputError(f"{names} must have shapes {want}, got {got}")
+    if pts.ndim != 2 or pts.shape[1] != 3 or lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
+        raise InputError(f"points must have shape (P, 3) and labels (P,) integers, got {pts.shape} and {lab.shape} {lab.dtype}")
+    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(u).all() and np.isfinite(pts).all()):
+        raise InputError("cam_from_part, size_m, joint_axis and points must be finite")
+    cam = np.zeros(3) if camera is None else np.asarray(camera, dtype=np.float64)
+    if cam.shape != (3,) or not np.isfinite(cam).all():
+        raise InputError(f"camera must be a finite (3,) position, got {np.shape(camera)}")
+    if (S <= 0).any():
+        raise InputError(f"size_m must be positive, got {S.tolist()}")
+    return T, S, u, piv, pts, lab, cam
+
+
 def place_weak_parts(
     cam_from_part,
     size_m,
@@ -166,27 +194,8 @@ def place_weak_parts(
             ``[0, 1]``, a negative ``turn_cost``, a step that is not positive, a camera that is not a finite
             ``(3,)`` position, an ``upright_margin_deg`` that is not finite.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.asarray(size_m, dtype=np.float64)
-    u = np.asarray(joint_axis, dtype=np.float64)
-    piv = np.asarray(joint_pivot, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64)
-    lab = np.asarray(labels)
-    K, J = priors.num_parts, priors.num_joints
-    if T.shape != (K, 4, 4) or S.shape != (K, 3) or u.shape != (J, 3) or piv.shape != (J, 3):
-        raise InputError(
-            f"cam_from_part, size_m, joint_axis and joint_pivot must have shapes ({K}, 4, 4), ({K}, 3), ({J}, 3), "
-            f"({J}, 3), got {T.shape}, {S.shape}, {u.shape}, {piv.shape}"
-        )
-    if pts.ndim != 2 or pts.shape[1] != 3 or lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
-        raise InputError(f"points must have shape (P, 3) and labels (P,) integers, got {pts.shape} and {lab.shape} {lab.dtype}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(u).all() and np.isfinite(pts).all()):
-        raise InputError("cam_from_part, size_m, joint_axis and points must be finite")
-    cam = np.zeros(3) if camera is None else np.asarray(camera, dtype=np.float64)
-    if cam.shape != (3,) or not np.isfinite(cam).all():
-        raise InputError(f"camera must be a finite (3,) position, got {np.shape(camera)}")
-    if (S <= 0).any():
-        raise InputError(f"size_m must be positive, got {S.tolist()}")
+    T, S, u, piv, pts, lab, cam = _checked_scene(cam_from_part, size_m, joint_axis, points, labels, priors, camera, joint_pivot)
+    K = priors.num_parts
     if not (0.0 <= weak_share <= 1.0 and 0.0 <= strong_share <= 1.0):
         raise InputError(f"weak_share and strong_share must lie in [0, 1], got {weak_share!r}, {strong_share!r}")
     if not (turn_cost >= 0.0 and step_deg > 0.0 and max_turn_deg >= 0.0):
@@ -415,28 +424,10 @@ def slide_weak_children(
             integers, ``steps < 2``, a negative ``slack``, a ``shrink`` outside ``(0, 1]``, a camera that is not a
             finite ``(3,)`` position.
     """
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.asarray(size_m, dtype=np.float64)
-    u = np.asarray(joint_axis, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64)
-    lab = np.asarray(labels)
-    K, J = priors.num_parts, priors.num_joints
-    if T.shape != (K, 4, 4) or S.shape != (K, 3) or u.shape != (J, 3):
-        raise InputError(
-            f"cam_from_part, size_m and joint_axis must have shapes ({K}, 4, 4), ({K}, 3), ({J}, 3), "
-            f"got {T.shape}, {S.shape}, {u.shape}"
-        )
-    if pts.ndim != 2 or pts.shape[1] != 3 or lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
-        raise InputError(f"points must have shape (P, 3) and labels (P,) integers, got {pts.shape} and {lab.shape} {lab.dtype}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(u).all() and np.isfinite(pts).all()):
-        raise InputError("cam_from_part, size_m, joint_axis and points must be finite")
-    if (S <= 0).any():
-        raise InputError(f"size_m must be positive, got {S.tolist()}")
+    T, S, u, _, pts, lab, cam = _checked_scene(cam_from_part, size_m, joint_axis, points, labels, priors, camera)
+    K = priors.num_parts
     if int(steps) < 2 or not slack >= 0.0 or not 0.0 < shrink <= 1.0:
         raise InputError(f"steps must be >= 2, slack >= 0 and shrink in (0, 1], got {steps!r}, {slack!r}, {shrink!r}")
-    cam = np.zeros(3) if camera is None else np.asarray(camera, dtype=np.float64)
-    if cam.shape != (3,) or not np.isfinite(cam).all():
-        raise InputError(f"camera must be a finite (3,) position, got {np.shape(camera)}")
     moved = np.zeros(K)
     if confidence is not None:
         lab = np.where(_checked_confidence(confidence, len(lab)) >= FRONT_MIN_CONFIDENCE, lab, -1)
