@@ -314,8 +314,6 @@ def exposed_surface_share(
         InputError: shapes that do not match, non-finite values, non-positive sizes, fewer than two points in
             front of the camera, ``grid < 2``, a non-positive ``ray_radius`` or negative ``depth_tol``.
     """
-    from scipy.spatial import cKDTree  # noqa: PLC0415 - scipy is a hard dependency; import where used
-
     T = np.asarray(cam_from_box, np.float64)
     pts = np.asarray(points, np.float64)
     if T.ndim != 3 or T.shape[1:] != (4, 4):
@@ -333,16 +331,31 @@ def exposed_surface_share(
         raise InputError(f"size_m must be positive, got {S.tolist()}")
     if int(grid) < 2 or not ray_radius > 0 or not depth_tol >= 0:
         raise InputError(f"grid must be >= 2, ray_radius > 0 and depth_tol >= 0, got {grid!r}, {ray_radius!r}, {depth_tol!r}")
+    rays = _ray_index(pts, cam, ray_radius)
+    if rays is None:
+        raise InputError("at least two points must lie in front of the camera (positive z from it)")
+    return _exposed_share(T, S, cam, rays, int(grid), depth_tol)
+
+
+def _ray_index(pts: np.ndarray, cam: np.ndarray, ray_radius: float):
+    """The cloud's rays for :func:`_exposed_share`: ``(rel, tree, r)``, the points in front of the camera relative to
+    it, a KD-tree of their image-plane coordinates and the search radius; ``None`` with fewer than two such points."""
+    from scipy.spatial import cKDTree  # noqa: PLC0415 - scipy is a hard dependency; import where used
+
     rel = pts - cam
     rel = rel[rel[:, 2] > 0]  # a point behind the camera hides nothing from it
     if len(rel) < 2:
-        raise InputError(f"at least two points must lie in front of the camera (positive z from it), got {len(rel)}")
+        return None
     uv = rel[:, :2] / rel[:, 2:3]
     tree = cKDTree(uv)
     spacing = float(np.median(tree.query(uv, k=2)[0][:, 1]))
-    r = ray_radius * max(spacing, 1e-9)
+    return rel, tree, ray_radius * max(spacing, 1e-9)
+
+
+def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, depth_tol: float) -> np.ndarray:
+    """:func:`exposed_surface_share` on checked inputs and a prepared :func:`_ray_index`."""
+    rel, tree, r = rays
     # (6 * g * g, 3) samples on the unit cube's faces, in units of the half extents, and each face's normal
-    g = int(grid)
     a = (np.arange(g) + 0.5) / g * 2.0 - 1.0
     A, Bq = np.meshgrid(a, a, indexing="ij")
     faces, normals = [], []
@@ -358,18 +371,17 @@ def exposed_surface_share(
     q = np.einsum("bij,bfj->bfi", R, unit[None] * (0.5 * S)[:, None, :]) + t[:, None, :]  # (B, F, 3)
     n = np.einsum("bij,fj->bfi", R, nrm)
     facing = np.einsum("bfi,bfi->bf", n, cam - q) > 0.0
-    qr = (q - cam).reshape(-1, 3)
+    qr = q[facing] - cam  # (Q, 3) the faced samples only, from the camera
+    box = np.nonzero(facing)[0]
     front = qr[:, 2] > 1e-9
-    quv = np.where(front[:, None], qr[:, :2] / np.where(front, qr[:, 2], 1.0)[:, None], 0.0)
     k = min(RAY_NEIGHBOURS, len(rel))
-    dist, idx = tree.query(quv, k=k, distance_upper_bound=r)
-    dist, idx = dist.reshape(len(qr), k), idx.reshape(len(qr), k)
-    found = np.isfinite(dist)
-    seen_z = np.where(found, rel[np.minimum(idx, len(rel) - 1), 2], np.inf).min(1)  # the nearest surface seen
+    dist, idx = tree.query(qr[front, :2] / qr[front, 2:3], k=k, distance_upper_bound=r)
+    dist, idx = dist.reshape(-1, k), idx.reshape(-1, k)
+    seen_z = np.where(np.isfinite(dist), rel[np.minimum(idx, len(rel) - 1), 2], np.inf).min(1)  # the nearest surface seen
     tol = depth_tol * np.linalg.norm(S, axis=1)
-    beyond = seen_z.reshape(len(T), -1) > qr[:, 2].reshape(len(T), -1) + tol[:, None]  # includes nothing seen
-    bad = (beyond | ~front.reshape(len(T), -1)) & facing
-    return bad.sum(1) / np.maximum(facing.sum(1), 1)
+    bad = ~front  # a faced sample behind the camera's plane is contradicted
+    bad[front] = seen_z > qr[front, 2] + tol[box[front]]  # nothing seen along the ray, or a surface seen beyond it
+    return np.bincount(box[bad], minlength=len(T)) / np.maximum(facing.sum(1), 1)
 
 
 def slide_weak_children(
@@ -432,8 +444,7 @@ def slide_weak_children(
     if confidence is not None:
         lab = np.where(_checked_confidence(confidence, len(lab)) >= FRONT_MIN_CONFIDENCE, lab, -1)
     counts = np.bincount(lab[(lab >= 0) & (lab < K)], minlength=K)
-    if int(((pts - cam)[:, 2] > 0).sum()) < 2:  # no view to check against
-        return T, moved
+    rays = None
     for j, jp in enumerate(priors.joints):  # a handful of joints; the work per joint is vectorised
         c = jp.child
         if jp.type != JointType.PRISMATIC or counts[c] >= max(int(min_points), 1) or not np.linalg.norm(u[j]) > 0:
@@ -449,7 +460,10 @@ def slide_weak_children(
         states = np.concatenate([[q0], np.linspace(lo, hi, int(steps))])  # the voted state first
         cand = np.broadcast_to(T[c], (len(states), 4, 4)).copy()
         cand[:, :3, 3] += (states - q0)[:, None] * axis
-        cost = exposed_surface_share(cand, shrink * S[c], pts, camera=cam)
+        rays = _ray_index(pts, cam, RAY_RADIUS) if rays is None else rays  # once, for every hidden child
+        if rays is None:  # fewer than two points in front of the camera: no view to check against
+            break
+        cost = _exposed_share(cand, np.broadcast_to(shrink * S[c], (len(cand), 3)), cam, rays, FACE_GRID, DEPTH_TOL)
         own = pts[lab == c]
         if len(own):
             cost = cost + np.median(box_surface_distance(cand, S[c], own), axis=1) / np.linalg.norm(S[c])
