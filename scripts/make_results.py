@@ -869,7 +869,7 @@ def main() -> int:
             "space (inside the upright cone), the drawer's front flips, placement, slide and stack, the door, lid and "
             "temple turn, the settled joint states, the dishwasher's hinge seat and its pick by the parts given points, "
             "the laptop's and scissors' upright carry inside the cone, "
-            "the drawer's restarts; its stored weights, "
+            "the drawer's restarts and its hidden drawers' check against the view; its stored weights, "
             "half precision where the packaging check allowed); front / side / "
             "back: the test views by the camera's yaw about the object (front "
             "|yaw| < 45 deg, back > 135 deg), their count in brackets, and the mean rotation error and mean translation "
