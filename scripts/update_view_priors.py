@@ -41,6 +41,14 @@ JOINT_FIELDS = ("pivot_in_parent", "pivot_in_child", "child_size_ratio", "child_
 EXTENT_JOINT_FIELDS = ("child_size_ratio", "child_size_spread")
 
 
+def _picked_views(ds, num: int) -> tuple[list, np.ndarray, np.ndarray]:
+    """Up to ``num`` evenly spaced views of ``ds``, their true part poses ``(V, K, 4, 4)`` and box extents ``(V, K, 3)``."""
+    picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), num)).round().astype(np.int64))]
+    T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
+    S = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
+    return picked, T, S
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--model", required=True, help="the model's JSON file")
@@ -76,9 +84,7 @@ def main(argv=None) -> int:
         return 2
     made = {k: ds.meta.get(k) for k in ("split", "seed", "num", "generator_version")}  # how to make the views again
     if args.slides_only:
-        picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), args.num)).round().astype(np.int64))]
-        T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
-        S = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
+        picked, T, S = _picked_views(ds, args.num)
         J = len(pri["joints"])
         U = np.stack([np.asarray(s["joint_axis"], np.float64).reshape(J, 3) for s in picked])
         Q = np.stack([np.asarray(s["joint_state"], np.float64).reshape(J) for s in picked])
@@ -93,9 +99,7 @@ def main(argv=None) -> int:
         atomic_write_json(args.model, meta)
         return 0
     if args.stacks_only:
-        picked = [ds[int(i)] for i in np.unique(np.linspace(0, len(ds) - 1, min(len(ds), args.num)).round().astype(np.int64))]
-        T = np.stack([np.asarray(s["cam_from_part"], np.float64) for s in picked])
-        S = np.stack([np.asarray(s["size_m"], np.float64) for s in picked])
+        picked, T, S = _picked_views(ds, args.num)
         pri["stacks"] = [st.to_dict() for st in stack_statistics(T, S, CategoryPriors.from_dict(pri).joints)]
         meta.setdefault("info", {})["stacks_from"] = {"data": Path(args.data).name, **made, "num_samples": len(picked)}
         atomic_write_json(args.model, meta)

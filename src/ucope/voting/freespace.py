@@ -27,6 +27,8 @@ there back to the nearest state where it would not have been seen (docs/voting.m
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import InputError
@@ -35,7 +37,7 @@ from ..geometry.transforms import axis_angle_transform
 from ..priors import CategoryPriors
 from ..vocab import JointType
 from .extent import _checked_confidence
-from .kinematic import FRONT_MIN_CONFIDENCE, UPRIGHT_MARGIN_DEG, weak_neighbours
+from .kinematic import FRONT_MIN_CONFIDENCE, UPRIGHT_MARGIN_DEG, _checked_camera, weak_neighbours
 
 __all__ = [
     "place_weak_parts",
@@ -136,9 +138,7 @@ def _checked_scene(cam_from_part, size_m, joint_axis, points, labels, priors: Ca
         raise InputError(f"points must have shape (P, 3) and labels (P,) integers, got {pts.shape} and {lab.shape} {lab.dtype}")
     if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(u).all() and np.isfinite(pts).all()):
         raise InputError("cam_from_part, size_m, joint_axis and points must be finite")
-    cam = np.zeros(3) if camera is None else np.asarray(camera, dtype=np.float64)
-    if cam.shape != (3,) or not np.isfinite(cam).all():
-        raise InputError(f"camera must be a finite (3,) position, got {np.shape(camera)}")
+    cam = np.zeros(3) if camera is None else _checked_camera(camera)
     if (S <= 0).any():
         raise InputError(f"size_m must be positive, got {S.tolist()}")
     return T, S, u, piv, pts, lab, cam
@@ -323,10 +323,9 @@ def exposed_surface_share(
         raise InputError(f"size_m must have shape ({len(T)}, 3) or (3,), got {np.shape(size_m)}")
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise InputError(f"points must have shape (P, 3), got {pts.shape}")
-    cam = np.zeros(3) if camera is None else np.asarray(camera, np.float64)
-    finite = np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all() and np.isfinite(cam).all()
-    if cam.shape != (3,) or not finite:
-        raise InputError("cam_from_box, size_m, points and camera must be finite, camera of shape (3,)")
+    cam = np.zeros(3) if camera is None else _checked_camera(camera)
+    if not (np.isfinite(T).all() and np.isfinite(S).all() and np.isfinite(pts).all()):
+        raise InputError("cam_from_box, size_m and points must be finite")
     if (S <= 0).any():
         raise InputError(f"size_m must be positive, got {S.tolist()}")
     if int(grid) < 2 or not ray_radius > 0 or not depth_tol >= 0:
@@ -352,21 +351,30 @@ def _ray_index(pts: np.ndarray, cam: np.ndarray, ray_radius: float):
     return rel, tree, ray_radius * max(spacing, 1e-9)
 
 
-def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, depth_tol: float) -> np.ndarray:
-    """:func:`exposed_surface_share` on checked inputs and a prepared :func:`_ray_index`."""
-    rel, tree, r = rays
-    # (6 * g * g, 3) samples on the unit cube's faces, in units of the half extents, and each face's normal
+@functools.lru_cache(maxsize=8)
+def _face_lattice(g: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(unit, normals)``, each ``(6 * g * g, 3)``, read-only: the centres of a ``g x g`` lattice on each face of the
+    cube ``[-1, 1]^3`` (in units of a box's half extents) and each sample's face normal (made once per ``g``)."""
     a = (np.arange(g) + 0.5) / g * 2.0 - 1.0
-    A, Bq = np.meshgrid(a, a, indexing="ij")
+    A, B = np.meshgrid(a, a, indexing="ij")
     faces, normals = [], []
-    for ax in range(3):
+    for ax in range(3):  # six faces
         o1, o2 = [k for k in range(3) if k != ax]
         for sgn in (-1.0, 1.0):
             f = np.zeros((g * g, 3))
-            f[:, ax], f[:, o1], f[:, o2] = sgn, A.reshape(-1), Bq.reshape(-1)
+            f[:, ax], f[:, o1], f[:, o2] = sgn, A.reshape(-1), B.reshape(-1)
             faces.append(f)
             normals.append(np.broadcast_to(np.eye(3)[ax] * sgn, (g * g, 3)))
-    unit, nrm = np.concatenate(faces), np.concatenate(normals)  # (F, 3)
+    unit, nrm = np.concatenate(faces), np.concatenate(normals)
+    unit.setflags(write=False)
+    nrm.setflags(write=False)
+    return unit, nrm
+
+
+def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, depth_tol: float) -> np.ndarray:
+    """:func:`exposed_surface_share` on checked inputs and a prepared :func:`_ray_index`."""
+    rel, tree, r = rays
+    unit, nrm = _face_lattice(g)
     R, t = T[:, :3, :3], T[:, :3, 3]
     q = np.einsum("bij,bfj->bfi", R, unit[None] * (0.5 * S)[:, None, :]) + t[:, None, :]  # (B, F, 3)
     n = np.einsum("bij,fj->bfi", R, nrm)
