@@ -37,8 +37,8 @@ WORK=${3:-work/$CATEGORY}
 mkdir -p "$WORK"
 WORK=$(cd "$WORK" && pwd)
 
-if [ -x .venv/bin/ucope ]; then UCOPE=${UCOPE:-.venv/bin/ucope}; else UCOPE=${UCOPE:-ucope}; fi
-if [ -x .venv/bin/python ]; then PY=${PY:-.venv/bin/python}; else PY=${PY:-python3}; fi
+if [ -x .venv/bin/ucope ]; then UCOPE=${UCOPE:-$PWD/.venv/bin/ucope}; else UCOPE=${UCOPE:-ucope}; fi
+if [ -x .venv/bin/python ]; then PY=${PY:-$PWD/.venv/bin/python}; else PY=${PY:-python3}; fi
 STAGES=${STAGES:-"fetch check data train eval"}
 WORKERS=${WORKERS:-2}
 DEVICE=${DEVICE:-auto}

@@ -1,0 +1,47 @@
+"""Record the golden results of the shipped models: the estimator's output on fixed generated views.
+
+    python scripts/record_golden.py                       # every shipped model, 50 test + 50 ood views each
+    python scripts/record_golden.py --models drawer --num 10
+
+For each model it generates ``--num`` views of the ``test`` and of the ``ood`` split (seed
+:data:`tests/golden_support.GOLDEN_SEED`, one view per object), runs ``Estimator.load(model)`` with its
+default pipeline, and writes ``tests/golden/MODEL.npz``: every part pose and size, every joint's axis, pivot and
+state, the scores and a digest of the per-point labels. ``tests/estimation/test_golden.py`` compares the
+estimator against these files; re-record them only when a change of results is intended, and say in the
+commit which views changed and why.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+from golden_support import GOLDEN_DIR, golden_views, record  # noqa: E402
+
+from ucope.model.checkpoint import list_pretrained  # noqa: E402
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--models", nargs="+", default=None, help="shipped models (default: all)")
+    ap.add_argument("--num", type=int, default=50, help="views per split (default 50)")
+    ap.add_argument("--out", default=str(GOLDEN_DIR), help="folder of the golden files")
+    args = ap.parse_args()
+    models = args.models or [list_pretrained()]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name in models:
+        t0 = time.perf_counter()
+        views = golden_views(name, args.num)
+        path = record(name, views, out / f"{name}.npz")
+        print(f"{name}: {len(views)} views -> {path} ({time.perf_counter() - t0:.0f} s)", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
