@@ -32,7 +32,7 @@ def main() -> int:
     ap.add_argument("--num", type=int, default=50, help="views per split (default 50)")
     ap.add_argument("--out", default=str(GOLDEN_DIR), help="folder of the golden files")
     args = ap.parse_args()
-    models = args.models or [list_pretrained()]
+    models = args.models or list_pretrained()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for name in models:
