@@ -73,7 +73,7 @@ directions has at least this length (1 = always the same direction, about 0 = an
 
 SEEN_QUANTILE = 0.01
 """A part's seen extent along an axis is the range from this quantile to ``1 -`` it of its points' coordinates
-(:func:`seen_extent_statistics`, :func:`ucope.voting.fit_seen_extents`)."""
+(:func:`seen_extent_statistics`, :func:`ucope.stages.extents.fit_seen_extents`)."""
 
 SEEN_MAX_OCCLUDED = 0.25
 """Views where another part's box hides more than this fraction of a part's faced box points
@@ -131,12 +131,12 @@ class PartPrior:
             over the training views (the :data:`SEEN_QUANTILE` range of the part's points along the axis over
             its box extent, :func:`seen_extent_statistics`); NaN (``null`` in JSON) where a pattern had fewer
             than :data:`SEEN_MIN_VIEWS` views; ``None`` when not measured. Used by
-            :func:`ucope.voting.fit_seen_extents`.
+            :func:`ucope.stages.extents.fit_seen_extents`.
         faced_gap: ``(3, 2, 3)`` per part axis and faced side (- then +: the face the camera lies beyond) the
             10th, 50th and 90th percentiles over the training views of the gap between that face of the box
             and the part's points (their :data:`SEEN_QUANTILE` extreme towards the camera), in part box
             diagonals (:func:`faced_gap_statistics`); NaN (``null``) where fewer than :data:`SEEN_MIN_VIEWS`
-            views; ``None`` when not measured. Used by :func:`ucope.voting.anchor_faced_faces`.
+            views; ``None`` when not measured. Used by :func:`ucope.stages.extents.anchor_faced_faces`.
     """
 
     name: str
@@ -210,27 +210,27 @@ class JointPrior:
         child_in_parent, parent_in_child: ``(3,)`` mean position of the child's box centre in the parent's
             frame divided by the parent's box diagonal, and of the parent's centre in the child's frame
             divided by the child's diagonal (over the category's instances and joint range): where each
-            part's neighbour sits, used to undo half-turn flips (:func:`ucope.voting.kinematic.resolve_joint_flips`).
+            part's neighbour sits, used to undo half-turn flips (:func:`ucope.stages.flips.resolve_joint_flips`).
         child_in_parent_spread: prismatic joints: ``(3,)`` the standard deviation of ``child_in_parent``
             over the training views (same units); where it is below
-            :data:`ucope.voting.kinematic.PLACE_MAX_SPREAD` on a parent axis across the joint's axis (a
+            :data:`ucope.stages.prismatic.PLACE_MAX_SPREAD` on a parent axis across the joint's axis (a
             drawer always centred left-right in its cabinet), the child is placed at the mean there
-            (:func:`ucope.voting.kinematic.place_prismatic_children`). ``None`` for revolute joints or
+            (:func:`ucope.stages.prismatic.place_prismatic_children`). ``None`` for revolute joints or
             when not measured.
         child_size_ratio, child_size_spread: ``(3,)`` the mean over the training views of the child's box
             extents over the parent's, axis by axis (the parts' axes agree at state 0), and its standard
             deviation over that mean (a dishwasher door as wide as its body: 0.99, spread 0.004); where the
             spread is small, a child's extent follows its parent's measured one
-            (:func:`ucope.voting.kinematic.carry_child_sizes`). ``None`` when not measured.
+            (:func:`ucope.stages.extents.carry_child_sizes`). ``None`` when not measured.
         max_state_over_extent: prismatic joints: the largest state over the training views divided by the child's
             box extent along the joint's axis (a drawer on three-quarter extension slides: 0.75): how far a child
-            the view hides can be pulled out (:func:`ucope.voting.slide_weak_children`). ``None`` for revolute
+            the view hides can be pulled out (:func:`ucope.stages.exposure.slide_weak_children`). ``None`` for revolute
             joints or when not measured.
         pivot_in_parent, pivot_in_child: revolute joints: ``(3,)`` the foot of the perpendicular from the
             parent's box centre to the joint axis, in the parent's and in the child's frame, each divided
             elementwise by that part's box extents (mean over the training views, :func:`pivot_offsets`);
             ``None`` for prismatic joints or when not measured. They place a part from its neighbour
-            through the joint (:func:`ucope.voting.kinematic.carry_upright`).
+            through the joint (:func:`ucope.stages.upright.carry_upright`).
     """
 
     type: JointType
@@ -330,7 +330,7 @@ class JointPrior:
 class StackPrior:
     """Prismatic children of one parent that every training view held one above the other along a parent axis
     across their slides, in one order and face to face (the drawers of a chest): where a view hides some of
-    them, :func:`ucope.voting.stack_hidden_children` puts them next to a seen one (or under the parent's face).
+    them, :func:`ucope.stages.prismatic.stack_hidden_children` puts them next to a seen one (or under the parent's face).
 
     Attributes:
         parent: the parent part's index.

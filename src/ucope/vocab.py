@@ -17,7 +17,10 @@ import enum
 
 from .errors import InputError
 
-__all__ = ["JointType", "JOINT_TYPES", "SYMMETRIES", "parse_symmetry", "VOTE_HEADS", "AXIS_HEADS"]
+__all__ = ["JointType", "JOINT_TYPES", "SYMMETRIES", "parse_symmetry", "VOTE_HEADS", "AXIS_HEADS", "MIN_POINTS"]
+
+MIN_POINTS = 32
+"""The fewest finite points a cloud needs to be estimated (and a part of it to be left out or kept)."""
 
 
 class JointType(enum.IntEnum):

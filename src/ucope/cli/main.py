@@ -173,7 +173,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     items = []
     t0 = time.perf_counter()
     for cat in args.categories:
-        est = Estimator.load(cat, num_pairs=args.pairs, seed=args.seed)
+        est = Estimator.load(cat, overrides={"vote_parts.num_pairs": args.pairs}, seed=args.seed)
         # Unseen instances: the test split's instance stream is disjoint from the training one.
         gen = GenerateConfig(category=cat, split="test", num=args.num, seed=args.seed, views_per_instance=1)
         for i in range(args.num):
@@ -495,209 +495,34 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def _estimator_options(p: argparse.ArgumentParser) -> None:
-    """The options of :func:`_estimator` (shared by predict and eval)."""
-    p.add_argument("--pairs", type=int, default=20000, help="point pairs per object (default 20000)")
-    p.add_argument("--no-awareness", action="store_true", help="turn part and joint awareness off (ablation)")
+    """The options of :func:`_estimator` (shared by predict and eval): the model card's pipeline, changed."""
+    p.add_argument("--pairs", type=int, default=None, help="point pairs per object (default: the model's, 20000)")
     p.add_argument(
-        "--refine",
-        action=argparse.BooleanOptionalAction,
+        "--stages",
         default=None,
-        help="kinematic refinement of the part poses, on or off (default: the model's own; the shipped "
-        "eyeglasses, drawer, dishwasher and scissors models have it on)",
+        help="the stages to run, in order, comma-separated (default: the model's own; `ucope pipeline --model M` lists them)",
     )
+    p.add_argument("--drop-stage", nargs="+", default=[], metavar="STAGE", help="leave these stages of the model's list out")
     p.add_argument(
-        "--remove-plane",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="leave out a floor or table plane under the object that the mask let in (default: the model's own; "
-        "on for the shipped models where it measured better, docs/robustness.md)",
-    )
-    p.add_argument(
-        "--grow-boxes",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="widen every part's box to hold the points segmented as that part, for objects of shapes the model "
-        "never saw (default: the model's own; on for the shipped models where it measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--fit-extents",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="set the box axes that views like this one see whole from the points segmented as that part, larger or "
-        "smaller than voted (default: the model's own; on for the shipped models where it measured better, "
-        "docs/results.md)",
-    )
-    p.add_argument(
-        "--anchor-faces",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="move the root part's box so that the faces the camera faces sit where its points put them (default: "
-        "the model's own; on for the shipped models where it measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--align-faces",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="turn each part's voted rotation so that its box axes meet the normals of its flat faces (default: the "
-        "model's own; on for the shipped models where it measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--free-space",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="turn a part that shows few points (a laptop base behind its lid) about its joint to where its box hides "
-        "none of the points the camera sees and its own points lie on it (default: the model's own; on for the "
-        "shipped models where it measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--carry-in-cone",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="re-place a part from its neighbour as soon as it tilts out of the upright cone of its training views, "
-        "not only 10 degrees beyond (default: the model's own; on for the shipped models where it measured better, "
-        "docs/results.md)",
-    )
-    p.add_argument(
-        "--pick-seen-parts",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="let the scale search and the restarts compare estimates by the parts given points only (default: the "
-        "model's own; on for the shipped models where it measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--seat-parts",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="put a part that shows few points and stands off its hinge (a closed door seen from behind) where its "
-        "hinge meets its well-seen neighbour's (default: the model's own; on for the shipped models where it "
-        "measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--free-slides",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="slide a prismatic child that shows no points (a hidden drawer) back to the nearest state where the "
-        "camera would not have seen it (default: the model's own; on for the shipped models where it measured "
-        "better, docs/results.md)",
-    )
-    p.add_argument(
-        "--denoise-above",
-        type=float,
-        default=None,
-        metavar="MM",
-        help="smooth a cloud whose surface noise is above this many millimetres (default: the model's own; "
-        "docs/robustness.md)",
-    )
-    p.add_argument("--no-denoise", action="store_true", help="never smooth the cloud (whatever the model's default)")
-    p.add_argument(
-        "--no-recrop",
-        action="store_true",
-        help="one pass only: no second estimate on the points the first segmented as the object (default: two passes "
-        "where the first leaves points out or finds the object outside the model's sizes; docs/robustness.md)",
-    )
-    p.add_argument(
-        "--no-revolution-fit",
-        action="store_true",
-        help="keep the voted box of a part symmetric about y even where a surface-of-revolution fit to its points "
-        "disagrees (default: the fit wins beyond 1.2x; docs/robustness.md)",
-    )
-    p.add_argument(
-        "--no-scale-search",
-        action="store_true",
-        help="estimate once, at the scale the rescaling gives the cloud (default: also on the cloud normalised to the "
-        "model's typical size, keeping the higher-scored estimate; docs/results.md)",
-    )
-    p.add_argument(
-        "--wide-scale-search",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="the scale search also tries the cloud normalised to 0.8x and 1.25x the model's typical size (default: "
-        "the model's own; on for the shipped models where it measured better, docs/results.md)",
-    )
-    p.add_argument(
-        "--restarts",
-        type=int,
-        default=None,
-        metavar="N",
-        help="up to N further estimates from other draws of the network's points while the best score stays low, "
-        "keeping the highest-scored (default: the model's own; docs/results.md)",
-    )
-    p.add_argument(
-        "--no-hold-children",
-        action="store_true",
-        help="keep a cabinet's box as voting and the fits made it (default: widened across the drawers' slides to "
-        "hold the drawers' points too; docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-carry-depths",
-        action="store_true",
-        help="keep a drawer as deep as voting made it (default: as deep as its cabinet says, its front kept; " "docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-place-children",
-        action="store_true",
-        help="keep a drawer where voting put it (default: centred in its cabinet where the model's training views "
-        "always had it so; docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-slide-fronts",
-        action="store_true",
-        help="keep a drawer where voting put it along its slide (default: slid until its front meets its points; "
-        "docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-stack-children",
-        action="store_true",
-        help="keep a hidden drawer where voting put it (default: stacked against a seen drawer or under its "
-        "cabinet's top; docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-turn-children",
-        action="store_true",
-        help="keep a door's or a lid's angle as voting made it (default: turned about its hinge to lie along its "
-        "points; docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-flip-fronts",
-        action="store_true",
-        help="keep a cabinet facing the way voting turned it (default: turned round where its drawers' points say "
-        "its front is its back; docs/voting.md)",
-    )
-    p.add_argument(
-        "--no-rescale",
-        action="store_true",
-        help="estimate a cloud outside the model's training sizes as it is (default: scale it into them and the result back)",
-    )
-    p.add_argument(
-        "--no-score-filter",
-        action="store_true",
-        help="every pair votes for its part, whatever its part score (ablation of the paper's eq. (10) alone)",
-    )
-    p.add_argument(
-        "--pairs-from-cloud",
-        action="store_true",
-        help="draw each part's pairs from the whole cloud, not from the points segmented as that part (ablation)",
-    )
-    p.add_argument(
-        "--no-vote-caps",
-        action="store_true",
-        help="every pair votes the axes and the centre grid (ablation; default: evenly strided subsets of at most "
-        "1,024 pairs per part vote the axes and 4,096 the centre grid, which is as accurate and faster)",
-    )
-    p.add_argument(
-        "--keep-flips",
-        action="store_true",
-        help="do not turn back half-turn flips (parts against their revolute joint, rigid objects against their shape; ablation)",
-    )
-    p.add_argument(
-        "--no-upright",
-        action="store_true",
-        help="do not re-place a part voted far off the upright the training views kept it in from its neighbour, "
-        "nor turn a rigid object voted upside down over (use with a rolled camera or one below the object)",
+        "--set",
+        nargs="+",
+        default=[],
+        metavar="STAGE.PARAM=VALUE",
+        help="change a stage parameter or the search policy, e.g. vote_parts.num_pairs=5000 search.restarts=0 "
+        "free_space.upright_margin_deg=null (docs/pipeline.md lists them)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the subsampling and pair draws (>= 0)")
     p.add_argument("--device", default="cpu", help="torch device of the network: cpu (default), cuda, cuda:1, mps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def cmd_pipeline(args: argparse.Namespace) -> int:
+    from ..estimation.pipeline import describe
+
+    est = _estimator(args)
+    print(f"{est.name}: {len(est.pipeline.stages)} stages ({est.category}, {est.cfg.num_parts} parts)")
+    print(describe(est.pipeline))
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -930,6 +755,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_output_options(pr)
     _estimator_options(pr)
     pr.set_defaults(func=cmd_predict)
+
+    pl = sub.add_parser("pipeline", help="print a model's stages, in order, with what each does, and its search policy")
+    pl.add_argument("--model", required=True, help="a shipped model name (e.g. drawer), a run folder or a model .json")
+    _estimator_options(pl)
+    pl.set_defaults(func=cmd_pipeline)
 
     mo = sub.add_parser("models", help="list the models shipped inside the package, with their test-split figures")
     mo.set_defaults(func=cmd_models)

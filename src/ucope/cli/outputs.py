@@ -173,55 +173,23 @@ def read_rgb(path: str, shape: tuple[int, int] | None) -> np.ndarray:
 
 
 def estimator_options(args: argparse.Namespace) -> dict:
-    """The keyword arguments of :meth:`ucope.estimation.Estimator.load` that the ``predict`` / ``eval``
-    flags ask for (``None`` where a flag was not given: the model's own default)."""
-    from dataclasses import replace
+    """The keyword arguments of :meth:`ucope.estimation.Estimator.load` that the ``predict`` / ``eval`` /
+    ``pipeline`` options ask for: the model's stages changed by ``--stages`` / ``--drop-stage``, parameters by
+    ``--pairs`` and ``--set``."""
+    from ..stages import get_stage, parse_overrides
 
-    from ..voting import VotingOptions
-
-    options = VotingOptions.uncapped() if getattr(args, "no_vote_caps", False) else None
-    if getattr(args, "no_revolution_fit", False):
-        options = replace(options or VotingOptions(), revolution_factor=None)
-    denoise = "model"
-    if getattr(args, "no_denoise", False):
-        denoise = None
-    elif getattr(args, "denoise_above", None) is not None:
-        denoise = 1e-3 * args.denoise_above
-    return dict(
-        num_pairs=args.pairs,
-        awareness=not args.no_awareness,
-        refine=args.refine,
-        seed=args.seed,
-        resolve_flips=not args.keep_flips,
-        upright=not args.no_upright,
-        rescale=not args.no_rescale,
-        remove_plane=args.remove_plane,
-        denoise_above_m=denoise,
-        grow_boxes=getattr(args, "grow_boxes", None),
-        fit_extents=getattr(args, "fit_extents", None),
-        anchor_faces=getattr(args, "anchor_faces", None),
-        align_faces=getattr(args, "align_faces", None),
-        free_space=getattr(args, "free_space", None),
-        seat_parts=getattr(args, "seat_parts", None),
-        free_slides=getattr(args, "free_slides", None),
-        pick_seen_parts=getattr(args, "pick_seen_parts", None),
-        carry_in_cone=getattr(args, "carry_in_cone", None),
-        recrop=not getattr(args, "no_recrop", False),
-        scale_search=not getattr(args, "no_scale_search", False),
-        wide_scale_search=getattr(args, "wide_scale_search", None),
-        restarts=getattr(args, "restarts", None),
-        hold_children=not getattr(args, "no_hold_children", False),
-        carry_depths=not getattr(args, "no_carry_depths", False),
-        place_children=not getattr(args, "no_place_children", False),
-        slide_fronts=not getattr(args, "no_slide_fronts", False),
-        stack_children=not getattr(args, "no_stack_children", False),
-        turn_children=not getattr(args, "no_turn_children", False),
-        flip_fronts=not getattr(args, "no_flip_fronts", False),
-        device=args.device,
-        score_filter=False if args.no_score_filter else None,
-        segment_pairs=False if args.pairs_from_cloud else None,
-        options=options,
-    )
+    overrides = parse_overrides(getattr(args, "set", None) or [])
+    if getattr(args, "pairs", None) is not None:
+        overrides["vote_parts.num_pairs"] = args.pairs
+    stages = None
+    if getattr(args, "stages", None):
+        stages = [n.strip() for n in args.stages.split(",") if n.strip()]
+        for name in stages:
+            get_stage(name)
+    drop = list(getattr(args, "drop_stage", None) or [])
+    for name in drop:
+        get_stage(name)
+    return dict(stages=stages, drop=drop, overrides=overrides, seed=args.seed, device=args.device)
 
 
 def predict_instances(args: argparse.Namespace) -> int:

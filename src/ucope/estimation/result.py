@@ -17,6 +17,7 @@ length in metres, angles in radians, camera frame = OpenCV: +x right, +y down, +
       "part_labels": [0, 0, 1, -1, ...],      # one per input point; -1: not the object (NaN / Inf, background)
       "num_points": 12345,                    # input points
       "timings_ms": {"preprocess": ..., "encoder": ..., "pair_encoder": ..., "voting": ..., "total": ...},
+      "stages": [{"name": "vote_parts", "ms": 8.1, "changed": {"parts": ["base", "lid"], ...}}, ...],
       "model": "laptop", "ucope_version": "0.2.0", "conventions_version": "1"
     }
 
@@ -157,8 +158,11 @@ class PoseResult:
     num_points: int = 0
     warnings: list[str] = field(default_factory=list)
     features: np.ndarray | None = field(default=None, repr=False, compare=False)
-    """``(K, len(FEATURES))`` the inputs of the score calibration (:mod:`ucope.estimation.confidence`);
+    """``(K, len(FEATURES))`` the inputs of the score calibration (:mod:`ucope.stages.confidence`);
     not part of the JSON form."""
+    stages: list[dict] = field(default_factory=list, compare=False)
+    """What each stage of the pipeline did in the estimate that stands: ``{"name", "ms", "changed"}`` per stage,
+    in order (:class:`ucope.stages.base.StageRecord`)."""
 
     @property
     def cam_from_part(self) -> np.ndarray:
@@ -190,6 +194,7 @@ class PoseResult:
             "part_labels": np.asarray(self.part_labels, dtype=np.int64).tolist(),
             "num_points": int(self.num_points),
             "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
+            "stages": [dict(s) for s in self.stages],
             "model": self.model,
             "ucope_version": __version__,
             "conventions_version": CONVENTIONS_VERSION,
@@ -213,6 +218,7 @@ class PoseResult:
                 model=str(d.get("model", "")),
                 num_points=int(d.get("num_points", 0)),
                 warnings=[str(w) for w in d.get("warnings", [])],
+                stages=[dict(s) for s in d.get("stages", [])],
             )
         except (KeyError, TypeError, ValueError) as e:
             raise DataError(f"malformed ucope result: {e}") from None

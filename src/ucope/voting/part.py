@@ -82,11 +82,6 @@ class VotingOptions:
             visible points lie on the box face towards the camera (the camera is the origin of the
             points' frame): the pair geometry hardly constrains the centre along the normal of a plate
             (``nu`` changes only to second order with it).
-        revolution_factor: a part symmetric about y of an object without joints (bottle, bowl, can) gets
-            its box and centre from a surface-of-revolution fit to its points
-            (:func:`ucope.voting.revolution.refine_revolution`) where the fit's size differs from the voted
-            one by more than this factor on some axis (default 1.2, measured in docs/robustness.md); ``None``:
-            off.
     """
 
     score_threshold: float = 0.5
@@ -100,7 +95,6 @@ class VotingOptions:
     refine_rotation: bool = True
     rotation_iters: int = 4
     thin_snap_ratio: float = 0.25
-    revolution_factor: float | None = 1.2
 
     @classmethod
     def uncapped(cls, **kw) -> VotingOptions:
@@ -134,8 +128,6 @@ class VotingOptions:
             raise InputError(f"score_threshold must be in [0, 1), got {self.score_threshold}")
         if int(self.min_pairs) < 1 or int(self.max_axis_pairs) < 1 or int(self.window) < 0 or int(self.rotation_iters) < 0:
             raise InputError("min_pairs and max_axis_pairs must be positive, window and rotation_iters >= 0")
-        if self.revolution_factor is not None and not float(self.revolution_factor) > 1.0:
-            raise InputError(f"revolution_factor must be > 1 (or None: off), got {self.revolution_factor}")
 
 
 @dataclass

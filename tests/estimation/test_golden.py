@@ -1,0 +1,41 @@
+"""The shipped models against their golden results (tests/golden_support.py, scripts/record_golden.py).
+
+The default run checks the first two test and two ood views of every shipped model; ``-m slow`` checks all of
+them. A change that is meant to move results re-records the golden files and says which views moved and why.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from golden_support import GOLDEN_DIR, differences, flatten, golden_views, load, predict_views
+
+from ucope.model.checkpoint import list_pretrained
+
+MODELS = [m for m in list_pretrained() if (GOLDEN_DIR / f"{m}.npz").is_file()]
+
+
+def _check(model: str, per_split: int | None) -> None:
+    stored = load(model)
+    n = int(np.sum(stored["split"] == "test"))
+    num = n if per_split is None else min(per_split, n)
+    views = golden_views(model, num)
+    rows = np.array([np.flatnonzero((stored["split"] == s) & (stored["index"] == i))[0] for s, i, _ in views])
+    got = flatten(predict_views(model, views))
+    diff = differences(stored, got, rows)
+    assert not diff, f"{model}: {len(diff)} of {len(rows)} golden views changed:\n" + "\n".join(diff)
+
+
+def test_every_shipped_model_has_golden_results():
+    assert MODELS == list_pretrained()
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_golden_first_views(model):
+    _check(model, 2)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", MODELS)
+def test_golden_all_views(model):
+    _check(model, None)
