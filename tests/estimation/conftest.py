@@ -20,7 +20,7 @@ def laptop_and_mug_frame():
         (SMALL.fx, SMALL.fy, SMALL.cx, SMALL.cy),
         frame["instance"],
         {1: "mug", 2: "laptop"},
-        estimator_options={"num_pairs": 4000},
+        estimator_options={"overrides": {"vote_parts.num_pairs": 4000}},
     )
     return frame, result
 
@@ -33,5 +33,5 @@ def laptop_sample_result():
     from ucope.eval.evaluate import sample_errors
 
     s = make_sample(GenerateConfig(category="laptop", split="test", num=1, views_per_instance=1), 0)
-    r = Estimator.load("laptop", num_pairs=4000).predict_sample(s)
+    r = Estimator.load("laptop", overrides={"vote_parts.num_pairs": 4000}).predict_sample(s)
     return s, r, sample_errors(r, s)

@@ -1,4 +1,4 @@
-"""The estimator's second pass on the points its first pass segmented as the object (Estimator(recrop=...))."""
+"""The estimator's second pass on the points its first pass segmented as the object (``search.recrop``)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from ucope.eval.metrics import rotation_error_deg
 @pytest.fixture(scope="module")
 def mug():
     s = make_sample(GenerateConfig(category="mug", split="test", num=1, views_per_instance=1, seed=2), 0)
-    return s, Estimator.load("mug", num_pairs=4000, remove_plane=False)
+    return s, Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000})
 
 
 def _floor_under(s, rng, n=1500, reach=(0.06, 0.25)):
@@ -32,7 +32,9 @@ def _floor_under(s, rng, n=1500, reach=(0.06, 0.25)):
 
 def test_a_clean_cloud_in_the_training_sizes_takes_one_pass(mug):
     s, est = mug
-    one = Estimator.load("mug", num_pairs=4000, remove_plane=False, recrop=False).predict(s["points"])
+    one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
+        s["points"]
+    )
     assert np.mean(one.part_labels < 0) < RECROP_MIN_FRACTION  # the precondition: nothing to leave out
     two = est.predict(s["points"])
     assert not any("estimated again" in w for w in two.warnings)
@@ -60,7 +62,9 @@ def test_a_floor_left_in_the_mask_is_left_out_and_the_pose_estimated_again(mug):
     np.testing.assert_array_equal(again.parts[0].cam_from_part, T)
     np.testing.assert_array_equal(again.part_labels, r.part_labels[perm])
     # one pass: no such warning, and every point labelled by the one estimate
-    one = Estimator.load("mug", num_pairs=4000, remove_plane=False, recrop=False).predict(cloud)
+    one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
+        cloud
+    )
     assert not any("estimated again" in w for w in one.warnings)
 
 
@@ -69,8 +73,10 @@ def test_the_second_pass_decides_the_rescaling_on_the_object_points():
     rescale; the second rescales the whole cloud, so the result is the one-pass rescaled estimate."""
     s = make_sample(GenerateConfig(category="drawer", split="test", num=1, views_per_instance=1, seed=3), 0)
     small = scale_sample(s, 0.3)["points"]
-    two = Estimator.load("drawer", num_pairs=2000, refine=False).predict(small)
-    one = Estimator.load("drawer", num_pairs=2000, refine=False, recrop=False).predict(small)
+    two = Estimator.load("drawer", drop=["kinematic_refine"], overrides={"vote_parts.num_pairs": 2000}).predict(small)
+    one = Estimator.load(
+        "drawer", drop=["kinematic_refine"], overrides={"vote_parts.num_pairs": 2000, "search.recrop": False}
+    ).predict(small)
     assert any("scaled by" in w for w in two.warnings) and any("scaled by" in w for w in one.warnings)
     for a, b in zip(two.parts, one.parts, strict=True):
         np.testing.assert_array_equal(a.cam_from_part, b.cam_from_part)
@@ -91,7 +97,9 @@ def test_a_compact_cloud_far_above_the_training_sizes_is_rescaled_in_the_first_p
     s, est = mug
     big = scale_sample(s, 3.0)
     assert est.input_scale(big["points"])[0] < 1.0  # the precondition: too large for the model
-    one = Estimator.load("mug", num_pairs=4000, remove_plane=False, recrop=False).predict(big["points"])
+    one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
+        big["points"]
+    )
     two = est.predict(big["points"])
     assert any("was scaled by" in w for w in one.warnings) and any("was scaled by" in w for w in two.warnings)
     assert rotation_error_deg(two.parts[0].cam_from_part[:3, :3], big["cam_from_part"][0][:3, :3]) < 15.0

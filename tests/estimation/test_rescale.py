@@ -1,4 +1,4 @@
-"""The estimator's rescaling of clouds outside the model's training sizes (Estimator(rescale=...))."""
+"""The estimator's rescaling of clouds outside the model's training sizes (``search.rescale``)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,11 @@ def drawer():
     """A drawer test view (prismatic joints: their states must follow the scale) and the shipped model
     (one estimate per cloud: the scale search is tested in test_scale_search.py, the restarts in test_restarts.py)."""
     s = make_sample(GenerateConfig(category="drawer", split="test", num=1, views_per_instance=1, seed=3), 0)
-    return s, Estimator.load("drawer", num_pairs=2000, refine=False, scale_search=False, restarts=0)
+    return s, Estimator.load(
+        "drawer",
+        drop=["kinematic_refine"],
+        overrides={"vote_parts.num_pairs": 2000, "search.scale_factors": [], "search.restarts": 0},
+    )
 
 
 def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):
@@ -28,16 +32,7 @@ def test_a_cloud_inside_the_training_sizes_is_left_alone(drawer):
     assert scale == 1.0
     a, b = (
         est.predict(s["points"]),
-        Estimator(
-            est.model,
-            num_pairs=2000,
-            rescale=False,
-            grow_boxes=est.grow_boxes,
-            align_faces=est.align_faces,
-            fit_extents=est.fit_extents,
-            calibration=est.calibration,
-            scale_search=False,
-        ).predict(s["points"]),
+        Estimator(est.model, est.pipeline, overrides={"search.rescale": False}).predict(s["points"]),
     )
     for pa, pb in zip(a.parts, b.parts, strict=True):
         np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
@@ -54,7 +49,7 @@ def test_a_small_or_large_cloud_is_estimated_in_the_training_sizes_and_scaled_ba
     got = est.predict(small)
     assert any("scaled by" in w for w in got.warnings)
     # The same as estimating the scaled cloud as it is and mapping the result back by hand.
-    plain = Estimator(est.model, num_pairs=2000, rescale=False, grow_boxes=est.grow_boxes, align_faces=est.align_faces).predict(
+    plain = Estimator(est.model, est.pipeline, overrides={"search.rescale": False}).predict(
         (centre + scale * (small - centre)).astype(np.float32)
     )
     for pg, pp in zip(got.parts, plain.parts, strict=True):
@@ -73,7 +68,7 @@ def test_rescaling_recovers_the_size_of_an_object_half_as_big_as_the_smallest_tr
     on keeps its box size ratio near 1 with the rescaling and is far too big without it
     (benchmarks/bench_scale.py has the full curve)."""
     s0 = make_sample(GenerateConfig(category="mug", split="test", num=1, views_per_instance=1, seed=5), 0)
-    est = {on: Estimator.load("mug", num_pairs=4000, rescale=on) for on in (False, True)}
+    est = {on: Estimator.load("mug", overrides={"vote_parts.num_pairs": 4000, "search.rescale": on}) for on in (False, True)}
     lo = est[True].priors.radius_range_m[0]
     s = scale_sample(s0, 0.5 * lo / cloud_radius(s0["points"]))
     true = np.prod(s["size_m"][0])
@@ -105,7 +100,7 @@ def test_rescaling_triggers_below_the_typical_radii_and_above_the_largest(drawer
     import dataclasses
 
     s, est0 = drawer
-    est = Estimator(est0.model, num_pairs=2000)
+    est = Estimator(est0.model, est0.pipeline)
     r = cloud_radius(s["points"])
     cases = [  # (typical, range, rescaled)
         ((1.2 * r, 2.0 * r), (0.5 * r, 3.0 * r), True),  # below the typical radii

@@ -1,4 +1,4 @@
-"""The estimator's restarts (``Estimator(restarts=N)``): further estimates from other draws of the network's
+"""The estimator's restarts (``search.restarts``): further estimates from other draws of the network's
 points and pairs while the best object score stays below ``RESTART_BELOW``, the highest-scored standing."""
 
 from __future__ import annotations
@@ -37,10 +37,10 @@ def test_restarts_run_while_the_best_score_is_low_and_the_best_stands(spy):
     """Measured, not constructed: on drawer test view 30 (generator revision 2) the first draw fails (score
     0.73); further draws run while the best score stays below RESTART_BELOW, and the best of them succeeds."""
     s = make_sample(DRAWER_TEST, 30)
-    once = Estimator.load("drawer", restarts=0).predict_sample(s)
+    once = Estimator.load("drawer", overrides={"search.restarts": 0}).predict_sample(s)
     first = list(spy)
     spy.clear()
-    got = Estimator.load("drawer", restarts=4).predict_sample(s)
+    got = Estimator.load("drawer", overrides={"search.restarts": 4}).predict_sample(s)
     assert spy[: len(first)] == first and all(d == 0 for d, _, _ in first)  # the same first estimates
     more = spy[len(first) :]
     assert [d for d, _, _ in more] == list(range(1, len(more) + 1)) and 1 <= len(more) <= 4
@@ -56,16 +56,16 @@ def test_restarts_run_while_the_best_score_is_low_and_the_best_stands(spy):
 def test_a_confident_first_estimate_is_not_restarted(spy):
     """Drawer test view 1 scores 0.89 on its first draw: no further draw, the same result."""
     s = make_sample(DRAWER_TEST, 1)
-    once = Estimator.load("drawer", restarts=0).predict_sample(s)
+    once = Estimator.load("drawer", overrides={"search.restarts": 0}).predict_sample(s)
     n = len(spy)
-    got = Estimator.load("drawer", restarts=4).predict_sample(s)
+    got = Estimator.load("drawer", overrides={"search.restarts": 4}).predict_sample(s)
     assert once.score >= RESTART_BELOW and len(spy) == 2 * n and all(d == 0 for d, _, _ in spy)
     np.testing.assert_array_equal(got.cam_from_part, once.cam_from_part)
 
 
 def test_restarts_are_repeatable():
     s = make_sample(DRAWER_TEST, 7)
-    a = Estimator.load("drawer", restarts=2).predict_sample(s)
-    b = Estimator.load("drawer", restarts=2).predict_sample(s)
+    a = Estimator.load("drawer", overrides={"search.restarts": 2}).predict_sample(s)
+    b = Estimator.load("drawer", overrides={"search.restarts": 2}).predict_sample(s)
     np.testing.assert_array_equal(a.cam_from_part, b.cam_from_part)
     np.testing.assert_array_equal(a.part_labels, b.part_labels)

@@ -36,7 +36,7 @@ def test_a_rolled_cloud_with_its_up_gives_the_rolled_result():
     are unchanged, and a warning says the cloud was turned."""
     s = make_sample(GenerateConfig(category="laptop", split="test", num=1, views_per_instance=1), 3)
     up = np.asarray(s["cam_from_object"], np.float64)[:3, 1]  # the object stands upright in the world
-    est = Estimator.load("laptop", num_pairs=4000)
+    est = Estimator.load("laptop", overrides={"vote_parts.num_pairs": 4000})
     base = est.predict(s["points"], s["normals"], up=up)
     Rz = rotation_about_axis(Z, np.radians(60.0))
     rolled = est.predict(np.asarray(s["points"], np.float64) @ Rz.T, np.asarray(s["normals"], np.float64) @ Rz.T, up=Rz @ up)

@@ -1,4 +1,4 @@
-"""The estimator's scale search (Estimator(scale_search=...)): a second estimate on the cloud normalised to
+"""The estimator's scale search (``search.scale_factors``): a second estimate on the cloud normalised to
 the model's typical radii, the higher-scored one standing."""
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def eyeglasses():
     """Test view 14 of seed 11 (benchmarks/bench_scale.py's views), scaled 1.5x: its cloud lies inside the
     radii the model saw, so the rescaling leaves it alone, but the object is larger than any it was trained on."""
     gen = GenerateConfig(category="eyeglasses", split="test", num=20, seed=11, views_per_instance=1)
-    return scale_sample(make_sample(gen, 14), 1.5), Estimator.load("eyeglasses", num_pairs=20000)
+    return scale_sample(make_sample(gen, 14), 1.5), Estimator.load("eyeglasses")
 
 
 def test_normalising_takes_any_cloud_to_the_middle_of_the_typical_radii(eyeglasses):
@@ -45,7 +45,7 @@ def test_the_higher_scored_estimate_stands_and_gets_a_large_object_right(eyeglas
     """Measured, not constructed: at its own scale this 1.5x object fails (boxes pulled into the training
     sizes, so their centres move); normalised it succeeds and scores higher."""
     s, est = eyeglasses
-    once = Estimator.load("eyeglasses", num_pairs=20000, scale_search=False).predict(s["points"])
+    once = Estimator.load("eyeglasses", overrides={"search.scale_factors": []}).predict(s["points"])
     got = est.predict(s["points"])
     assert not _success(once, s) and _success(got, s)
     assert got.score > once.score
@@ -57,8 +57,8 @@ def test_a_view_the_first_estimate_scores_higher_on_is_returned_unchanged():
     """Measured: scissors test view 7 of seed 11 at its own size scores 0.74 as it is, 0.54 normalised."""
     gen = GenerateConfig(category="scissors", split="test", num=20, seed=11, views_per_instance=1)
     s = make_sample(gen, 7)
-    searched = Estimator.load("scissors", num_pairs=20000).predict(s["points"])
-    once = Estimator.load("scissors", num_pairs=20000, scale_search=False).predict(s["points"])
+    searched = Estimator.load("scissors").predict(s["points"])
+    once = Estimator.load("scissors", overrides={"search.scale_factors": []}).predict(s["points"])
     assert searched.score == once.score
     for pa, pb in zip(searched.parts, once.parts, strict=True):
         np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
@@ -69,10 +69,13 @@ def test_a_view_the_first_estimate_scores_higher_on_is_returned_unchanged():
 
 def test_without_a_calibration_or_the_rescaling_there_is_no_search(eyeglasses):
     s, est = eyeglasses
-    for kw in ({"calibration": None}, {"rescale": False}):
-        kw = {"calibration": est.calibration, **kw}
-        a = Estimator(est.model, num_pairs=2000, scale_search=True, **kw).predict(s["points"])
-        b = Estimator(est.model, num_pairs=2000, scale_search=False, **kw).predict(s["points"])
+    import dataclasses
+
+    pairs = {"vote_parts.num_pairs": 2000}
+    uncalibrated = dataclasses.replace(est.pipeline, calibration=None)
+    for pipeline, kw in ((uncalibrated, {}), (est.pipeline, {"search.rescale": False})):
+        a = Estimator(est.model, pipeline, overrides={**pairs, **kw}).predict(s["points"])
+        b = Estimator(est.model, pipeline, overrides={**pairs, **kw, "search.scale_factors": []}).predict(s["points"])
         for pa, pb in zip(a.parts, b.parts, strict=True):
             np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
         assert a.score == b.score
@@ -84,8 +87,8 @@ def test_the_wide_search_gets_a_view_right_that_the_middle_alone_gets_wrong():
     and succeeds."""
     gen = GenerateConfig(category="eyeglasses", split="test", num=30, seed=11, views_per_instance=1)
     s = scale_sample(make_sample(gen, 2), 1.5)
-    narrow = Estimator.load("eyeglasses", num_pairs=20000, wide_scale_search=False).predict(s["points"])
-    wide = Estimator.load("eyeglasses", num_pairs=20000, wide_scale_search=True).predict(s["points"])
+    narrow = Estimator.load("eyeglasses", overrides={"search.scale_factors": [1.0]}).predict(s["points"])
+    wide = Estimator.load("eyeglasses", overrides={"search.scale_factors": [0.8, 1.0, 1.25]}).predict(s["points"])
     assert not _success(narrow, s) and _success(wide, s)
     assert wide.score > narrow.score
 
@@ -100,7 +103,7 @@ def test_the_wide_search_returns_the_best_scored_of_its_estimates_each_made_afre
 
     gen = GenerateConfig(category="laptop", split="test", num=30, seed=11, views_per_instance=1)
     s = scale_sample(make_sample(gen, 4), 0.5)
-    est = Estimator.load("laptop", num_pairs=2000, wide_scale_search=True)
+    est = Estimator.load("laptop", overrides={"vote_parts.num_pairs": 2000, "search.scale_factors": [0.8, 1.0, 1.25]})
     got = est.predict(s["points"])
     prep = prepare_points(s["points"], None, est.max_input_points, est.seed, estimate=False)
     args = (prep.points, prep.normals, "m", None, len(prep.raw))

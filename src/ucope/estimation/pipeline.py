@@ -31,15 +31,14 @@ def default_stages(priors: CategoryPriors, head: str = "voting") -> tuple[str, .
     prismatic joints)."""
     first = "regress_parts" if head == "regression" else "vote_parts"
     if priors.num_joints == 0:
-        return (first, "score") if head == "regression" else (first, "flip_shape", "turn_upright", "revolution_fit", "score")
+        return (first, "score") if head == "regression" else (first, "flips", "upright", "revolution_fit", "score")
     prismatic = any(jp.type == JointType.PRISMATIC for jp in priors.joints)
     return (
         first,
         "vote_joints",
-        "flip_joints",
-        "carry_upright",
+        "flips",
+        "upright",
         "joint_states",
-        *(("flip_fronts",) if prismatic else ()),
         "score",
         *(("prismatic",) if prismatic else ()),
         "turn_children",

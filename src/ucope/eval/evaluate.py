@@ -15,11 +15,13 @@ every metric of :mod:`ucope.eval.metrics` against the ground truth and summarise
      "map_nocs": compute_map(..., protocol="nocs") | None,   # the same under NOCS's reference protocol
      "map_records": [...] | None,            # their inputs (one GT, one prediction per view)
      "success": {"definition", "fraction",   # views with every part < 10 deg and < 10 % of its box diagonal
-                 "in_view_fraction"},        # ... every part the view shows (parts_in_view)
+                 "in_view_fraction",         # ... every part the view shows (parts_in_view)
+                 "num_objects", "interval_95_objects"},   # a cluster bootstrap over objects (object_interval)
      "view_bins": {"front" | "side" | "back": {"num_samples", "success", "success_in_view",
                                                "parts": summarize_parts(...),
                                                "seen_parts": summarize_parts(...)}},   # parts seen only
      "iou_method": ..., "hardware": {...}, "ucope_version": ...,
+     "views": [view_record(...)],           # compact per-view records, always kept
      "samples": [{"index", "instance_id", "view_yaw_deg", "visible_points": [K], "parts": [part_errors],
                   "joints": [joint_errors], "segmentation_iou": [K], "time_ms"}]}
 
@@ -77,6 +79,8 @@ __all__ = [
     "SUCCESS_ROT_DEG",
     "SUCCESS_TRANS_REL",
     "view_success",
+    "object_interval",
+    "view_record",
     "parts_in_view",
     "view_bin",
     "view_yaw_deg",
@@ -185,6 +189,42 @@ def parts_in_view(visible: Sequence[int]) -> list[bool]:
     """Per part, whether a view shows it: at least :data:`SEEN_MIN_POINTS` of the view's points are its own
     (``visible``: the count per part, :func:`visible_points`)."""
     return [int(n) >= SEEN_MIN_POINTS for n in visible]
+
+
+def object_interval(ok: Sequence[bool], objects: Sequence[str], level: float = 0.95, resamples: int = 2000) -> list[float]:
+    """A ``level`` interval of the success fraction of views ``ok`` that resamples whole objects, not views
+    (a cluster bootstrap over ``objects``, the instance of each view): views of one object succeed or fail
+    together far more often than views of different ones. Deterministic (a fixed seed).
+
+    Returns:
+        ``[low, high]`` fractions (both the fraction itself with a single object)."""
+    ok = np.asarray(ok, np.float64)
+    names, inverse = np.unique(np.asarray(objects, dtype=str), return_inverse=True)
+    hits = np.bincount(inverse, weights=ok, minlength=len(names))
+    views = np.bincount(inverse, minlength=len(names)).astype(np.float64)
+    if len(names) < 2:
+        return [float(ok.mean()), float(ok.mean())]
+    rng = np.random.default_rng(0)
+    pick = rng.integers(0, len(names), size=(resamples, len(names)))
+    frac = hits[pick].sum(axis=1) / views[pick].sum(axis=1)
+    lo, hi = np.quantile(frac, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
+    return [float(lo), float(hi)]
+
+
+def view_record(index: int, instance: str, errors: Mapping, ok: bool) -> dict:
+    """The compact per-view record every report keeps (``views``): the view's index, its object, its success, and
+    per part ``[rotation_deg, translation_norm, iou]``, per joint ``[axis_deg, state_error]`` (rounded)."""
+
+    def r(x, n=4):
+        return None if x is None else round(float(x), n)
+
+    return {
+        "index": int(index),
+        "object": str(instance),
+        "success": bool(ok),
+        "parts": [[r(e["rotation_deg"], 3), r(e["translation_norm"]), r(e["iou"])] for e in errors["parts"]],
+        "joints": [None if j is None else [r(j["axis_deg"], 3), r(j["state_error"])] for j in errors["joints"]],
+    }
 
 
 def view_yaw_deg(sample: Mapping) -> float:
@@ -351,7 +391,7 @@ def evaluate(
             bar = tqdm(total=n, desc=f"eval {cfg.category}", unit="sample", dynamic_ncols=True)
         except ImportError:  # pragma: no cover - tqdm is an optional extra
             bar = None
-    results, records, kept, bins, seen = [], [], [], [], []
+    results, records, kept, bins, seen, instances = [], [], [], [], [], []
     for i in range(n):
         s = samples[i]
         r = estimator.predict_sample(s)
@@ -362,6 +402,7 @@ def evaluate(
         seen.append(parts_in_view(vis))
         records.append(e)
         results.append(r)
+        instances.append(str(s.get("instance_id", i)))
         if cfg.num_parts == 1:
             kept.append(s)
         if bar is not None:
@@ -410,6 +451,8 @@ def evaluate(
             "definition": f"every part < {SUCCESS_ROT_DEG:g} deg and < {100 * SUCCESS_TRANS_REL:g} % of its box diagonal",
             "fraction": float(np.mean(ok)),
             "in_view_fraction": float(np.mean(ok_in_view)),
+            "num_objects": len(set(instances)),
+            "interval_95_objects": object_interval(ok, instances),
         },
         "view_bins": {
             b: {
@@ -426,6 +469,9 @@ def evaluate(
         "iou_method": IOU_METHOD,
         "ucope_version": __version__,
         "hardware": {"platform": platform.platform(), "cpu_count": os.cpu_count(), "torch_threads": _threads()},
+        "views": [
+            view_record(int(samples[i].get("index", i)), instances[i], records[i], bool(ok[i])) for i in range(n)
+        ],
         "samples": records if keep_samples else None,
     }
     return report

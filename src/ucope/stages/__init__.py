@@ -7,10 +7,10 @@ changed. ``ucope pipeline --model M`` prints a model's list; docs/pipeline.md de
 Layer: below :mod:`ucope.estimation`, above :mod:`ucope.voting` (the paper's maths, which the ``paper`` stages
 call) and :mod:`ucope.priors` (what the ``learned-prior`` stages read). Modules by topic:
 
-* :mod:`.cloud`: ``denoise``, ``remove_plane`` (before the network);
+* :mod:`.cloud`: ``clean_cloud`` (before the network);
 * :mod:`.paper`: ``vote_parts`` (or ``regress_parts``), ``vote_joints``, ``joint_states``;
-* :mod:`.faces`: ``align_faces``; :mod:`.flips`: ``flip_shape``, ``flip_joints``, ``flip_fronts``;
-* :mod:`.upright`: ``carry_upright``, ``turn_upright``; :mod:`.revolution`: ``revolution_fit``;
+* :mod:`.faces`: ``align_faces``; :mod:`.flips`: ``flips``; :mod:`.upright`: ``upright``;
+* :mod:`.revolution`: ``revolution_fit``;
 * :mod:`.states`: ``kinematic_refine``; :mod:`.confidence`: ``score``;
 * :mod:`.extents`: ``fit_boxes``; :mod:`.prismatic`: ``prismatic``; :mod:`.exposure`: ``free_space``;
 * :mod:`.revolute`: ``turn_children``, ``seat_parts``.

@@ -360,7 +360,7 @@ def _changes(before: tuple, state: PoseState) -> dict:
     T1, S1, q1 = _snapshot(state)
     out: dict[str, Any] = {}
     if T1 is not None and (T0 is None or T0.shape != T1.shape):
-        return {"parts": list(range(len(T1)))}
+        return {"parts": [state.part_name(k) for k in range(len(T1))]}
     if T1 is not None:
         rot = np.array([rotation_angle_deg(a[:3, :3], b[:3, :3]) for a, b in zip(T0, T1, strict=True)])  # K parts
         trans = np.linalg.norm(T1[:, :3, 3] - T0[:, :3, 3], axis=1) / state.scale

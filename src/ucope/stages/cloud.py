@@ -1,6 +1,6 @@
-"""Cloud stages: what a pass does to the cloud before the network sees it.
+"""The cloud stage: what a pass does to the cloud before the network sees it.
 
-Both read and write a :class:`ucope.stages.base.CloudState` (camera frame, metres).
+It reads and writes a :class:`ucope.stages.base.CloudState` (camera frame, metres).
 """
 
 from __future__ import annotations
@@ -14,60 +14,54 @@ from ..geometry.planes import find_support_plane
 from ..vocab import MIN_POINTS
 from .base import CloudState, stage
 
-__all__ = ["DenoiseParams", "RemovePlaneParams"]
+__all__ = ["CleanCloudParams"]
 
 
 @dataclass(frozen=True)
-class DenoiseParams:
+class CleanCloudParams:
     """Attributes:
-    above_m: a cloud whose surface noise (:func:`ucope.geometry.denoise.surface_noise`, metres) is above this is
-        smoothed; each model's card stores the noise it measured on its own validation views.
-    k: neighbours of the local planes the points are projected onto; iterations: projection rounds.
-    min_points: sparser clouds are never smoothed (their neighbourhoods are too wide: their "noise" is curvature).
+    noise_above_m: a cloud whose surface noise (:func:`ucope.geometry.denoise.surface_noise`, metres) is above this
+        is smoothed onto local planes (``smooth_k`` neighbours, ``smooth_iterations`` rounds; never a cloud of fewer
+        than ``smooth_min_points`` points, whose "noise" is curvature); ``None``: never. Each model's card stores
+        the noise measured on its own validation views.
+    plane: look for a support plane (:func:`ucope.geometry.planes.find_support_plane`, with the ``plane_*``
+        settings) and leave it out.
     """
 
-    above_m: float = 1.5e-3
-    k: int = 48
-    iterations: int = 2
-    min_points: int = 1000
+    noise_above_m: float | None = 1.5e-3
+    smooth_k: int = 48
+    smooth_iterations: int = 2
+    smooth_min_points: int = 1000
+    plane: bool = True
+    plane_iterations: int = 256
+    plane_min_fraction: float = 0.1
+    plane_threshold_rel: float = 0.02
+    plane_one_side: float = 0.95
+    plane_beyond: float = 0.3
 
 
-@stage("denoise", kind="learned-prior", params=DenoiseParams, phase="cloud")
-def _denoise(cloud: CloudState, params: DenoiseParams) -> None:
-    """The cloud smoothed onto local planes where its surface noise is above what the model's views had."""
-    if len(cloud.points) < params.min_points:
+@stage("clean_cloud", kind="learned-prior", params=CleanCloudParams, phase="cloud")
+def _clean_cloud(cloud: CloudState, params: CleanCloudParams) -> None:
+    """What is not the object's surface as the model knows it taken out: sensor noise beyond its training views
+    smoothed away, a floor or table that reaches beyond the object's footprint left out (its points get the label -1)."""
+    if params.noise_above_m is not None and len(cloud.points) >= params.smooth_min_points:
+        noise = surface_noise(cloud.points)
+        if noise > params.noise_above_m:
+            cloud.points = smooth_points(cloud.points, k=params.smooth_k, iterations=params.smooth_iterations).astype(np.float32)
+            cloud.warnings.append(
+                f"the cloud's surface noise ({1e3 * noise:.1f} mm) is above the {1e3 * params.noise_above_m:.1f} mm "
+                f"the model handles; it was smoothed before the estimate"
+            )
+    if not params.plane:
         return
-    noise = surface_noise(cloud.points)
-    if noise > params.above_m:
-        cloud.points = smooth_points(cloud.points, k=params.k, iterations=params.iterations).astype(np.float32)
-        cloud.warnings.append(
-            f"the cloud's surface noise ({1e3 * noise:.1f} mm) is above the {1e3 * params.above_m:.1f} mm "
-            f"the model handles; it was smoothed before the estimate"
-        )
-
-
-@dataclass(frozen=True)
-class RemovePlaneParams:
-    """Attributes: as :func:`ucope.geometry.planes.find_support_plane`."""
-
-    iterations: int = 256
-    min_fraction: float = 0.1
-    threshold_rel: float = 0.02
-    one_side: float = 0.95
-    beyond: float = 0.3
-
-
-@stage("remove_plane", kind="geometry", params=RemovePlaneParams, phase="cloud")
-def _remove_plane(cloud: CloudState, params: RemovePlaneParams) -> None:
-    """A floor or table under the object that reaches beyond its footprint, left out (its points get the label -1)."""
     plane = find_support_plane(
         cloud.points,
         seed=cloud.seed,
-        iterations=params.iterations,
-        min_fraction=params.min_fraction,
-        threshold_rel=params.threshold_rel,
-        one_side=params.one_side,
-        beyond=params.beyond,
+        iterations=params.plane_iterations,
+        min_fraction=params.plane_min_fraction,
+        threshold_rel=params.plane_threshold_rel,
+        one_side=params.plane_one_side,
+        beyond=params.plane_beyond,
     )
     if plane is None:
         return

@@ -349,82 +349,61 @@ def resolve_front_flips(
     return T, u, piv, flipped
 
 
-def _rigid(priors: CategoryPriors) -> bool:
-    return priors.num_joints == 0
-
-
-def _articulated(priors: CategoryPriors) -> bool:
-    return priors.num_joints > 0
-
-
-def _has_prismatic(priors: CategoryPriors) -> bool:
-    return any(jp.type == JointType.PRISMATIC for jp in priors.joints)
-
-
 @dataclass(frozen=True)
-class FlipShapeParams:
-    """Attributes: margin: the misfit ratio a half turn must beat; clip: the template distance cap (box
-    diagonals); max_points: the most points compared."""
+class FlipsParams:
+    """Attributes:
+    shape_margin: the misfit ratio a rigid part's half turn must beat; shape_clip: the template distance cap (box
+        diagonals); shape_max_points: the most points compared.
+    front_min_share / front_min_points: the fewest drawer points (share of the object's, count) that decide a
+        cabinet's front; front_max_deg: the largest tilt of the cabinet's upright axis from the camera's for the
+        check; front_min_confidence: points less sure to be the object do not count.
+    """
 
-    margin: float = 0.75
-    clip: float = SHAPE_CLIP
-    max_points: int = 1024
-
-
-@stage("flip_shape", kind="learned-prior", params=FlipShapeParams, reads=("shape_templates",), applies=_rigid)
-def _flip_shape(state: PoseState, params: FlipShapeParams) -> None:
-    """A rigid part turned by the half turn about one of its axes that fits its points to the training shapes best."""
-    T, _ = resolve_shape_flips(
-        state.cam_from_part,
-        state.size_m,
-        np.asarray(state.points, np.float64),
-        state.part_points,
-        state.priors,
-        state.shapes,
-        margin=params.margin,
-        clip=params.clip,
-        max_points=params.max_points,
-    )
-    state.cam_from_part = T
+    shape_margin: float = 0.75
+    shape_clip: float = SHAPE_CLIP
+    shape_max_points: int = 1024
+    front_min_share: float = FLIP_MIN_SHARE
+    front_min_points: int = FLIP_MIN_POINTS
+    front_max_deg: float = FLIP_MAX_DEG
+    front_min_confidence: float = 0.5
 
 
 @stage(
-    "flip_joints",
+    "flips",
     kind="learned-prior",
-    reads=("joints.limits", "joints.child_in_parent", "joints.parent_in_child"),
-    applies=_articulated,
+    params=FlipsParams,
+    reads=("shape_templates", "joints.limits", "joints.child_in_parent", "joints.parent_in_child"),
 )
-def _flip_joints(state: PoseState, params) -> None:
-    """A part turned back by a half turn where its revolute joint's limits or its neighbours' placements say so."""
+def _flips(state: PoseState, params: FlipsParams) -> None:
+    """Half turns undone: a rigid part turned to the pose that fits its training shapes, a part turned back to what its
+    joint's limits and its neighbours' placements allow, a cabinet turned round with its drawers where their points
+    lie behind it."""
+    if state.J == 0:
+        state.cam_from_part, _ = resolve_shape_flips(
+            state.cam_from_part,
+            state.size_m,
+            np.asarray(state.points, np.float64),
+            state.part_points,
+            state.priors,
+            state.shapes,
+            margin=params.shape_margin,
+            clip=params.shape_clip,
+            max_points=params.shape_max_points,
+        )
+        return
     state.cam_from_part, _ = resolve_joint_flips(state.cam_from_part, state.joint_axis, state.priors, state.size_m)
-
-
-@dataclass(frozen=True)
-class FlipFrontsParams:
-    """Attributes: min_share / min_points: the fewest children's points (share of the object's, count) that
-    decide; max_deg: the largest tilt of the parent's upright axis from the camera's for the check;
-    min_confidence: points less sure to be the object do not count."""
-
-    min_share: float = FLIP_MIN_SHARE
-    min_points: int = FLIP_MIN_POINTS
-    max_deg: float = FLIP_MAX_DEG
-    min_confidence: float = 0.5
-
-
-@stage("flip_fronts", kind="geometry", params=FlipFrontsParams, applies=_has_prismatic)
-def _flip_fronts(state: PoseState, params: FlipFrontsParams) -> None:
-    """A cabinet turned round with its drawers where the drawers' points lie behind its centre."""
-    state.cam_from_part, state.joint_axis, state.joint_pivot, _ = resolve_front_flips(
-        state.cam_from_part,
-        state.joint_axis,
-        state.joint_pivot,
-        state.points,
-        state.part_labels,
-        state.priors,
-        confidence=state.confidence,
-        camera=state.camera,
-        min_share=params.min_share,
-        min_points=params.min_points,
-        max_deg=params.max_deg,
-        min_confidence=params.min_confidence,
-    )
+    if any(jp.type == JointType.PRISMATIC for jp in state.priors.joints):
+        state.cam_from_part, state.joint_axis, state.joint_pivot, _ = resolve_front_flips(
+            state.cam_from_part,
+            state.joint_axis,
+            state.joint_pivot,
+            state.points,
+            state.part_labels,
+            state.priors,
+            confidence=state.confidence,
+            camera=state.camera,
+            min_share=params.front_min_share,
+            min_points=params.front_min_points,
+            max_deg=params.front_max_deg,
+            min_confidence=params.front_min_confidence,
+        )

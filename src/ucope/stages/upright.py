@@ -231,59 +231,53 @@ def carry_upright(
 
 
 @dataclass(frozen=True)
-class CarryUprightParams:
-    """Attributes: margin_deg: how far beyond its training cone (``PartPrior.upright_cone_deg``) a part's
-    upright axis may tilt before it is re-placed (0: as soon as it leaves the cone)."""
-
-    margin_deg: float = UPRIGHT_MARGIN_DEG
-
-
-@stage(
-    "carry_upright",
-    kind="learned-prior",
-    params=CarryUprightParams,
-    reads=("parts.upright_in_cam", "parts.upright_cone_deg", "joints.pivot_in_parent", "joints.pivot_in_child"),
-    applies=lambda priors: priors.num_joints > 0,
-)
-def _carry_upright(state: PoseState, params: CarryUprightParams) -> None:
-    """A part voted far off the upright its training views kept it in, re-placed from a neighbour through their
-    joint (its score is halved); assumes an upright camera."""
-    state.cam_from_part, carried = carry_upright(state.cam_from_part, state.size_m, state.priors, params.margin_deg)
-    state.carried = state.carried | carried
-    for k in np.flatnonzero(carried):
-        state.warnings.append(
-            f"part {state.part_name(k)!r}: its voted pose was tilted far off the upright this model was trained on; "
-            "it was placed from its neighbour through their joint, its score halved (drop the stage carry_upright "
-            "if the camera is rolled or below the object)"
-        )
-
-
-@dataclass(frozen=True)
-class TurnUprightParams:
-    """Attributes: margin_deg: how far beyond its training cone a part's upright axis may point down before it
-    is turned over; clip: the template distance cap of the fit (box diagonals)."""
+class UprightParams:
+    """Attributes:
+    margin_deg: how far beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt
+        before it is re-placed or turned over (0: as soon as it leaves the cone).
+    clip: the template distance cap of a rigid part's fit (box diagonals).
+    """
 
     margin_deg: float = UPRIGHT_MARGIN_DEG
     clip: float = SHAPE_CLIP
 
 
-@stage("turn_upright", kind="learned-prior", params=TurnUprightParams, applies=lambda priors: priors.num_joints == 0)
-def _turn_upright(state: PoseState, params: TurnUprightParams) -> None:
-    """A rigid object voted upside down against its training upright, turned over by the half turn its points fit
-    best; assumes an upright camera."""
-    state.cam_from_part, turned = turn_upright(
-        state.cam_from_part,
-        state.size_m,
-        np.asarray(state.points, np.float64),
-        state.part_points,
-        state.priors,
-        state.shapes,
-        margin_deg=params.margin_deg,
-        clip=params.clip,
-    )
-    for k in np.flatnonzero(turned):
+@stage(
+    "upright",
+    kind="learned-prior",
+    params=UprightParams,
+    reads=(
+        "parts.upright_in_cam",
+        "parts.upright_cone_deg",
+        "joints.pivot_in_parent",
+        "joints.pivot_in_child",
+        "shape_templates",
+    ),
+)
+def _upright(state: PoseState, params: UprightParams) -> None:
+    """A part voted far off the upright its training views kept it in: re-placed from a neighbour through their joint
+    (its score halved), or, in a rigid object, turned over by the half turn its points fit best. Assumes an upright
+    camera."""
+    if state.J > 0:
+        state.cam_from_part, carried = carry_upright(state.cam_from_part, state.size_m, state.priors, params.margin_deg)
+        state.carried = state.carried | carried
+        what = "it was placed from its neighbour through their joint, its score halved"
+        moved = carried
+    else:
+        state.cam_from_part, moved = turn_upright(
+            state.cam_from_part,
+            state.size_m,
+            np.asarray(state.points, np.float64),
+            state.part_points,
+            state.priors,
+            state.shapes,
+            margin_deg=params.margin_deg,
+            clip=params.clip,
+        )
+        what = "it was turned over by a half turn"
+    for k in np.flatnonzero(moved):
         state.warnings.append(
-            f"part {state.part_name(k)!r}: its voted pose was upside down against the upright this model was trained "
-            "on; it was turned over by a half turn (drop the stage turn_upright if the camera is rolled or below the "
-            "object)"
+            f"part {state.part_name(k)!r}: its voted pose was "
+            f"{'tilted far off' if state.J > 0 else 'upside down against'} the upright this model was trained on; "
+            f"{what} (drop the stage upright if the camera is rolled or below the object)"
         )
