@@ -37,7 +37,7 @@ def mug_sample():
 
 @pytest.fixture(scope="module")
 def mug():
-    return Estimator.load("mug", num_pairs=4000)
+    return Estimator.load("mug", overrides={"vote_parts.num_pairs": 4000})
 
 
 def _cli(capsys, *argv) -> tuple[int, str]:
@@ -247,8 +247,8 @@ def test_api_inputs_give_ucope_errors(mug_sample, mug):
         mug.predict([[0.0, 0.0, 1.0], [0.0, 1.0]])
     with pytest.raises(InputError, match="real numbers"):
         mug.predict(mug_sample["points"], normals=np.full(mug_sample["points"].shape, "a"))
-    with pytest.raises(InputError, match="max_input_points"):
-        Estimator(mug.model, max_input_points=0)
+    with pytest.raises(InputError, match="unknown stage"):
+        Estimator(mug.model, stages=["vote_parts", 3])
     with pytest.raises(InputError, match="model must be"):
         Estimator.load(None)
     with pytest.raises(InputError, match="device"):

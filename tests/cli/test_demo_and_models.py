@@ -33,7 +33,7 @@ def test_shipped_model_is_sane_on_fresh_unseen_instances(category):
     """A loose sanity bar, not the benchmark: every part within 15 degrees in at least 80% of 20 views of
     instances the model never saw (test split, another seed than docs/results.md's test set), with the
     model's default settings (as a user gets it)."""
-    est = Estimator.load(category, num_pairs=20000)
+    est = Estimator.load(category)
     gen = GenerateConfig(category=category, split="test", num=20, seed=7, views_per_instance=1)
     rot = []
     for i in range(20):

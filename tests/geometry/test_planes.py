@@ -1,4 +1,5 @@
-"""The floor / table plane under a segmented object (find_support_plane, Estimator(remove_plane=True))."""
+"""ucope.geometry.planes: the floor / table plane under a segmented object (find_support_plane); the estimator's use
+of it: tests/stages/test_cloud.py."""
 
 from __future__ import annotations
 
@@ -6,8 +7,7 @@ import numpy as np
 import pytest
 
 from ucope.errors import InputError
-from ucope.estimation.estimator import Estimator
-from ucope.estimation.inputs import find_support_plane
+from ucope.geometry.planes import find_support_plane
 
 
 def _cylinder(rng, n=1500, r=0.04, h=0.1, centre=(0.0, 0.0, 0.6)):
@@ -50,40 +50,3 @@ def test_no_plane_is_taken_from_the_object_itself(what):
 def test_too_few_points_are_named():
     with pytest.raises(InputError, match=r"\(N, 3\)"):
         find_support_plane(np.zeros((2, 3)))
-
-
-@pytest.fixture(scope="module")
-def mug_on_the_floor():
-    from ucope.data.generate import GenerateConfig, make_sample
-
-    s = make_sample(GenerateConfig(category="mug", split="test", num=1, views_per_instance=1, seed=2), 0)
-    obj = s["points"].astype(np.float64)
-    # a floor under it: the plane through the lowest object points, perpendicular to the mug's up axis
-    up = -s["cam_from_part"][0][:3, 1]  # the object's +y is up in its frame; the floor is below it
-    low = np.min(obj @ up)
-    rng = np.random.default_rng(3)
-    e1 = np.cross(up, [1.0, 0.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(up, e1)
-    c = s["cam_from_part"][0][:3, 3]
-    rad, ang = rng.uniform(0.06, 0.12, 1500), rng.uniform(0, 2 * np.pi, 1500)
-    floor = c + up * (low - c @ up) + np.outer(rad * np.cos(ang), e1) + np.outer(rad * np.sin(ang), e2)
-    floor = floor[floor[:, 2] < c[2]]  # the camera's side
-    return obj, floor
-
-
-def test_the_estimator_leaves_the_floor_out_labels_it_minus_one_and_says_so(mug_on_the_floor):
-    obj, floor = mug_on_the_floor
-    cloud = np.r_[obj, floor].astype(np.float32)
-    on = Estimator.load("mug", num_pairs=4000, remove_plane=True)
-    r = on.predict(cloud)
-    assert any("left out as floor" in w for w in r.warnings)
-    assert (r.part_labels[len(obj) :] == -1).mean() > 0.95
-    assert (r.part_labels[: len(obj)] == 0).mean() > 0.9
-    off = Estimator.load("mug", num_pairs=4000, remove_plane=False).predict(cloud)
-    assert not any("left out as floor" in w for w in off.warnings)
-    # the same cloud in another order gives the same plane and the same result
-    perm = np.random.default_rng(0).permutation(len(cloud))
-    again = on.predict(cloud[perm])
-    np.testing.assert_array_equal(again.parts[0].cam_from_part, r.parts[0].cam_from_part)
-    np.testing.assert_array_equal(again.part_labels, r.part_labels[perm])

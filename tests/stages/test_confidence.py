@@ -1,4 +1,5 @@
-"""Score calibration: the logistic fit, the AUROC against a plain reference, and scores in predictions."""
+"""ucope.stages.confidence: the logistic fit, the AUROC against a plain reference, part features, and calibrated
+scores in predictions (the ``score`` stage)."""
 
 import dataclasses
 import json
@@ -8,7 +9,7 @@ import pytest
 
 from ucope.errors import InputError
 from ucope.estimation import Estimator
-from ucope.estimation.confidence import FEATURES, Calibration, auroc, fit_logistic
+from ucope.stages.confidence import FEATURES, Calibration, auroc, fit_logistic, part_features
 
 
 def test_auroc_matches_the_pairwise_definition(rng):
@@ -45,24 +46,25 @@ def test_an_estimator_with_a_calibration_reports_probabilities_and_warns_below_i
     from ucope.data.generate import GenerateConfig, make_sample
 
     s = make_sample(GenerateConfig(category="laptop", split="test", num=1, seed=4), 0)
-    raw = Estimator.load("laptop", num_pairs=4000, calibration=None)
+    shipped = Estimator.load("laptop", overrides={"vote_parts.num_pairs": 4000})
+    assert shipped.pipeline.calibration is not None and shipped.calibration is shipped.pipeline.calibration
+    raw = Estimator(shipped.model, dataclasses.replace(shipped.pipeline, calibration=None))
     r = raw.predict(s["points"])
     assert r.features.shape == (2, len(FEATURES)) and all(p.score == p.vote_score for p in r.parts)
     d = len(FEATURES)
     always = Calibration(coef=(0.0,) * d, intercept=-2.0, mean=(0.0,) * d, std=(1.0,) * d, part_bias=(0.0, 0.0), threshold=0.5)
-    cal = Estimator(raw.model, num_pairs=4000, calibration=always).predict(s["points"])
+    cal = Estimator(raw.model, dataclasses.replace(raw.pipeline, calibration=always)).predict(s["points"])
     assert [p.score for p in cal.parts] == pytest.approx([1 / (1 + np.exp(2.0))] * 2)
     assert cal.score == pytest.approx(min(p.score for p in cal.parts))
     assert any("low confidence" in w for w in cal.warnings)
-    ok = Estimator(raw.model, num_pairs=4000, calibration=dataclasses.replace(always, threshold=0.0)).predict(s["points"])
+    at_zero = dataclasses.replace(raw.pipeline, calibration=dataclasses.replace(always, threshold=0.0))
+    ok = Estimator(raw.model, at_zero).predict(s["points"])
     assert not any("low confidence" in w for w in ok.warnings)
     with pytest.raises(InputError, match="parts"):
-        Estimator(raw.model, calibration=dataclasses.replace(always, part_bias=(0.0,)))
+        Estimator(raw.model, dataclasses.replace(raw.pipeline, calibration=dataclasses.replace(always, part_bias=(0.0,))))
 
 
 def test_part_features_carry_the_axis_agreements_and_zero_them_without_votes(rng):
-    from ucope.estimation.confidence import part_features
-
     T = np.repeat(np.eye(4)[None], 2, axis=0)
     T[1, :3, 3] = [0.3, 0.0, 0.0]
     pts = np.concatenate([rng.uniform(-0.05, 0.05, (50, 3)), rng.uniform(-0.05, 0.05, (50, 3)) + [0.3, 0, 0]])
@@ -87,3 +89,41 @@ def test_part_features_carry_the_axis_agreements_and_zero_them_without_votes(rng
     regressed = {k: v for k, v in votes.items() if k not in ("up_agreement", "right_agreement", "num_inliers")}
     F = part_features(regressed, labels, None, pts, 100, [0], [1])
     assert np.all(F[:, [i, j]] == 0.0)
+
+
+def test_the_score_stage_sets_the_calibrated_scores_or_the_raw_vote_scores(rng):
+    """``score`` computes the part features of the state and scores them with the model's calibration; without one
+    the scores are the vote scores. It moves nothing (an empty record)."""
+    from ucope.priors import CategoryPriors, JointPrior, PartPrior
+    from ucope.stages import PoseState, run
+
+    parts = (PartPrior("base", "none", 0.2, (0.1, 0.1, 0.1)), PartPrior("lid", "none", 0.2, (0.1, 0.1, 0.1)))
+    pri = CategoryPriors("toy", parts, (JointPrior("revolute", 0, 1, (1, 0, 0), limits=(0.0, 1.0)),))
+    pts = np.concatenate([rng.uniform(-0.05, 0.05, (50, 3)), rng.uniform(-0.05, 0.05, (50, 3)) + [0.3, 0, 0]])
+    labels = np.repeat([0, 1], 50)
+    votes = dict(
+        score=np.array([0.9, 0.3]),
+        num_pairs=np.array([100, 100]),
+        num_inliers=np.array([90, 30]),
+        mean_prob=np.array([0.9, 0.9]),
+        fallback=np.array([False, False]),
+        up_agreement=np.array([0.95, 0.4]),
+        right_agreement=np.array([0.9, 0.2]),
+    )
+    T = np.repeat(np.eye(4)[None], 2, axis=0)
+    T[1, :3, 3] = [0.3, 0.0, 0.0]
+    d = len(FEATURES)
+    always = Calibration(coef=(0.0,) * d, intercept=-2.0, mean=(0.0,) * d, std=(1.0,) * d, part_bias=(0.0, 1.0), threshold=0.5)
+    for cal in (None, always):
+        state = PoseState(pri, pts, np.zeros_like(pts), labels, num_input=100, calibration=cal)
+        state.cam_from_part, state.size_m, state.votes = T.copy(), np.full((2, 3), 0.1), dict(votes)
+        state.joint_score = np.array([0.7])
+        records = run(["score"], state, {})
+        assert records[0].changed == {}
+        full = {**votes, "cam_from_part": T, "size_m": state.size_m, "joint_score": [0.7]}
+        want = part_features(full, labels, None, pts, 100, [0], [1])
+        np.testing.assert_allclose(state.features, want)
+        if cal is None:
+            np.testing.assert_array_equal(state.score, votes["score"])
+        else:
+            np.testing.assert_allclose(state.score, 1 / (1 + np.exp([2.0, 1.0])))

@@ -1,17 +1,28 @@
-"""grow_to_points, fit_seen_extents and anchor_faced_faces: against plain per-axis references, and their contracts (growth never
-shrinks, thin axes, symmetric parts, few points, labels outside the parts, hidden parts, bad input)."""
+"""ucope.stages.extents: grow_to_points, fit_seen_extents and anchor_faced_faces against plain per-axis references,
+and their contracts (growth never shrinks, thin axes, symmetric parts, few points, labels outside the parts, hidden
+parts, bad input); carry_child_sizes on a door whose body was measured."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from stages_support import door_priors
 from tests_support import seen_pattern_reference
 
 from ucope.errors import InputError
 from ucope.geometry.boxes import SEEN_PATTERNS
-from ucope.geometry.transforms import make_transform, random_rotation
-from ucope.voting import anchor_faced_faces, fit_seen_extents, grow_to_points
-from ucope.voting.extent import ANCHOR_MAX_SPREAD, FIT_MAX_RATIO, FIT_MIN_RATIO, FIT_MIN_SEEN
+from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
+from ucope.priors import JointPrior
+from ucope.stages.extents import (
+    ANCHOR_MAX_SPREAD,
+    FIT_MAX_RATIO,
+    FIT_MIN_RATIO,
+    FIT_MIN_SEEN,
+    anchor_faced_faces,
+    carry_child_sizes,
+    fit_seen_extents,
+    grow_to_points,
+)
 
 
 def joined_reference(local, half, factor):
@@ -391,38 +402,46 @@ def test_anchor_bad_input_is_named():
         anchor_faced_faces(T, S, pts, lab, table, confidence=np.ones(2))
 
 
-def _plain_pieces(points, factor):
-    """Plain reference: the full distance matrix, the median nearest-neighbour distance, and a flood fill."""
-    d = np.linalg.norm(points[:, None] - points[None], axis=-1)
-    np.fill_diagonal(d, np.inf)
-    radius = factor * np.median(d.min(1))
-    joined = d <= radius
-    piece = np.full(len(points), -1)
-    for start in range(len(points)):
-        if piece[start] >= 0:
-            continue
-        piece[start] = start
-        todo = [start]
-        while todo:
-            i = todo.pop()
-            for j in np.flatnonzero(joined[i] & (piece < 0)):
-                piece[j] = start
-                todo.append(j)
-    return piece
+def test_a_hidden_door_takes_its_width_and_height_from_its_measured_body():
+    """The body's extents were measured (a countertop cabinet, 0.5 m tall); the door, voted 0.8 m tall, gets
+    0.86 x the body's height and its width, and hangs from the hinge where the body puts it; its depth (a
+    ratio that varies) and its rotation stay. A plausible door (within 15 %) keeps its extents."""
 
-
-def test_connected_pieces_match_a_plain_flood_fill():
-    """Clusters of points at random gaps, some closer than the radius, some further: the same partition as a
-    flood fill over the full distance matrix; duplicates and single points too."""
-    from ucope.voting.extent import connected_pieces
-
+    pri = door_priors()
     rng = np.random.default_rng(0)
-    for _ in range(5):
-        centres = rng.uniform(-1, 1, size=(6, 3))
-        pts = np.concatenate([c + rng.normal(scale=0.03, size=(rng.integers(5, 60), 3)) for c in centres])
-        for factor in (2.0, 8.0):
-            got, ref = connected_pieces(pts, factor), _plain_pieces(pts, factor)
-            pairs = got[:, None] == got[None]
-            np.testing.assert_array_equal(pairs, ref[:, None] == ref[None])
-    assert connected_pieces(np.zeros((1, 3)), 8.0).tolist() == [0]
-    assert len(set(connected_pieces(np.zeros((5, 3)), 8.0).tolist())) == 1  # duplicates are one piece
+    R = rotation_about_axis(rng.normal(size=3), 0.7)
+    T = np.tile(np.eye(4), (2, 1, 1))
+    T[:, :3, :3] = R
+    T[0, :3, 3] = [0.1, 0.2, 2.0]
+    S = np.array([[0.6, 0.5, 0.55], [0.6, 0.8, 0.1]])
+    measured = np.array([[True, True, True], [False, False, False]])
+    got_T, got_S, carried = carry_child_sizes(T, S, measured, pri)
+    np.testing.assert_allclose(got_S[1], [0.6, 0.86 * 0.5, 0.1])  # the width was already right: 0.6 = 1.0 x 0.6
+    np.testing.assert_array_equal(carried, [[False, False, False], [False, True, False]])
+    hinge = R @ (np.array([0.0, -0.5, 0.5]) * S[0]) + T[0, :3, 3]
+    np.testing.assert_allclose(got_T[1, :3, 3], hinge - R @ (np.array([0.0, -0.5, -0.5]) * got_S[1]), atol=1e-12)
+    np.testing.assert_array_equal(got_T[1, :3, :3], R)
+    np.testing.assert_array_equal(got_T[0], T[0])
+    # a door voted within 15 % of 0.86 x the body, a body not measured, a door measured itself: nothing moves
+    for S2, m in (
+        (np.array([[0.6, 0.5, 0.55], [0.6, 0.46, 0.1]]), measured),
+        (S, np.zeros((2, 3), bool)),
+        (S, np.ones((2, 3), bool)),
+    ):
+        same_T, same_S, carried = carry_child_sizes(T, S2, m, pri)
+        assert not carried.any() and np.array_equal(same_S, S2) and np.array_equal(same_T, T)
+
+
+def test_carrying_sizes_names_bad_input():
+    pri = door_priors()
+    T, S, m = np.tile(np.eye(4), (2, 1, 1)), np.ones((2, 3)), np.zeros((2, 3), bool)
+    with pytest.raises(InputError, match="shapes"):
+        carry_child_sizes(T[:1], S, m, pri)
+    with pytest.raises(InputError, match="positive"):
+        carry_child_sizes(T, -S, m, pri)
+    with pytest.raises(InputError, match="min_change"):
+        carry_child_sizes(T, S, m, pri, min_change=-1.0)
+    with pytest.raises(InputError, match="go together"):
+        JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 1.0, 1.0))
+    with pytest.raises(InputError, match="child_size_ratio"):
+        JointPrior("revolute", 0, 1, (1, 0, 0), child_size_ratio=(1.0, 0.0, 1.0), child_size_spread=(0.0, 0.0, 0.0))

@@ -9,8 +9,7 @@ import pytest
 
 from ucope.errors import InputError
 from ucope.geometry.transforms import make_transform, random_rotation
-from ucope.voting import align_parts_to_faces, align_to_faces
-from ucope.voting.faces import face_normals
+from ucope.stages.faces import align_parts_to_faces, align_to_faces, face_normals
 
 
 def reference(R, normals, tol_deg, iterations, prior_weight, min_points):

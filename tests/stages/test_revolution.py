@@ -1,4 +1,5 @@
-"""ucope.voting.revolution: the surface-of-revolution fit against known surfaces and a plain geometric fit."""
+"""ucope.stages.revolution: the surface-of-revolution fit against known surfaces and a plain geometric fit, and the
+``revolution_fit`` stage on a pose state."""
 
 import numpy as np
 import pytest
@@ -6,8 +7,9 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ucope.errors import InputError
-from ucope.voting import VotingOptions
-from ucope.voting.revolution import fit_revolution, looks_cut, refine_revolution
+from ucope.priors import CategoryPriors, PartPrior
+from ucope.stages import PoseState, run, stage_params
+from ucope.stages.revolution import fit_revolution, looks_cut, refine_revolution
 
 
 def bottle_points(rng, n=3000, centre=(0.01, -0.02), radius=0.045, neck=0.015, height=0.2, arc_deg=200.0, noise=0.0):
@@ -68,8 +70,9 @@ def test_points_that_do_not_bend_about_an_axis_give_no_fit_or_a_poor_one():
     assert fit_revolution(plane[:5]) is None  # fewer points than one slice needs
 
 
-def test_a_box_far_off_the_points_is_replaced_and_a_close_one_kept():
-    rng = np.random.default_rng(3)
+def _bottle_scene(seed=3):
+    """A bottle's points in the camera frame, its true pose, and a vote pulled 2.2 cm off its axis."""
+    rng = np.random.default_rng(seed)
     local, _ = bottle_points(rng, centre=(0.0, 0.0), noise=0.0005)
     R = Rotation.from_euler("xyz", [150, 20, 5], degrees=True).as_matrix()
     t = np.array([0.05, 0.02, 0.6])
@@ -78,6 +81,11 @@ def test_a_box_far_off_the_points_is_replaced_and_a_close_one_kept():
     truth[:3, :3], truth[:3, 3] = R, t
     wrong = truth.copy()
     wrong[:3, 3] += R @ np.array([0.02, 0.0, -0.01])  # a vote pulled off the axis, its box towards another shape
+    return cam, truth, wrong, R, t
+
+
+def test_a_box_far_off_the_points_is_replaced_and_a_close_one_kept():
+    cam, truth, wrong, R, t = _bottle_scene()
     T, S, replaced = refine_revolution(wrong, np.array([0.05, 0.26, 0.05]), cam)
     assert replaced
     np.testing.assert_allclose(T[:3, :3], R)  # the rotation is the vote's
@@ -113,5 +121,39 @@ def test_bad_settings_are_named():
         fit_revolution(np.zeros((10, 2)))
     with pytest.raises(InputError, match="finite"):
         fit_revolution(np.full((10, 3), np.nan))
-    with pytest.raises(InputError, match="revolution_factor"):
-        VotingOptions(revolution_factor=0.9)
+    cam, _, wrong, _, _ = _bottle_scene()
+    state = _bottle_state(cam, wrong)
+    with pytest.raises(InputError, match="factor"):
+        run(["revolution_fit"], state, stage_params(["revolution_fit"], {"revolution_fit.factor": 0.9}))
+
+
+def _bottle_state(cam, voted, symmetry="y", size=(0.05, 0.26, 0.05)):
+    """A one-part pose state: ``cam`` ``(P, 3)`` all the part's points (and its pairs' points), ``voted`` its pose."""
+    priors = CategoryPriors("bottle", (PartPrior("body", symmetry, 0.2, (0.09, 0.2, 0.09)),), ())
+    P = len(cam)
+    state = PoseState(priors, cam, np.zeros((P, 3)), np.zeros(P, np.int64), pair_idx=np.arange(P).reshape(1, -1, 1))
+    state.cam_from_part, state.size_m = voted[None].copy(), np.array([size], np.float64)
+    return state
+
+
+def test_the_stage_replaces_the_box_of_a_y_symmetric_part_from_its_pairs_points():
+    """The ``revolution_fit`` stage on the scene above: the box and centre of the y-symmetric part come from its
+    points (as refine_revolution gives them), the rotation stays, and the record names the part and the move.
+    A model whose part is not symmetric does not run it; a close box is kept (an empty record)."""
+    cam, truth, wrong, R, t = _bottle_scene()
+    state = _bottle_state(cam, wrong)
+    records = run(["revolution_fit"], state, stage_params(["revolution_fit"]))
+    want_T, want_S, _ = refine_revolution(wrong, np.array([0.05, 0.26, 0.05]), cam)
+    np.testing.assert_allclose(state.cam_from_part[0], want_T)
+    np.testing.assert_allclose(state.size_m[0], want_S)
+    np.testing.assert_allclose(state.cam_from_part[0, :3, 3], t, atol=3e-3)
+    assert [r.name for r in records] == ["revolution_fit"]
+    assert records[0].changed["parts"] == ["body"] and records[0].changed["rotation_deg"] == pytest.approx(0.0, abs=1e-4)
+    assert records[0].changed["translation_m"] == pytest.approx(np.linalg.norm(want_T[:3, 3] - wrong[:3, 3]), abs=1e-6)
+    plain = _bottle_state(cam, wrong, symmetry="none")
+    assert run(["revolution_fit"], plain, {}) == []
+    np.testing.assert_array_equal(plain.cam_from_part[0], wrong)
+    close = _bottle_state(cam, truth, size=(0.085, 0.21, 0.085))
+    records = run(["revolution_fit"], close, {})
+    assert records[0].changed == {}
+    np.testing.assert_array_equal(close.cam_from_part[0], truth)

@@ -105,9 +105,6 @@ class Estimator:
                 f"the calibration is for {len(self.pipeline.calibration.part_bias)} parts, the model has {self.cfg.num_parts}"
             )
         self.params = stage_params([*self.pipeline.stages, "vote_parts"], self.pipeline.params)
-        num_pairs = self.params["vote_parts"].num_pairs
-        if not (isinstance(num_pairs, int) and 10 <= num_pairs <= 1_000_000):
-            raise InputError(f"vote_parts.num_pairs must be an integer from 10 to 1000000, got {num_pairs!r}")
         self.device = _device(device)
         self.model = model.to(self.device).eval()
         self.seed = int(seed)

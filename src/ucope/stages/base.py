@@ -152,7 +152,9 @@ class PoseState:
             np.ndim(self.seg_prob) != 2 or len(self.seg_prob) != P or np.shape(self.seg_prob)[1] < K
         ):
             raise InputError(f"seg_prob must be (P={P}, C >= {K}), got {np.shape(self.seg_prob)}")
-        self.camera = np.asarray(self.camera, np.float64).reshape(3)
+        if np.shape(self.camera) != (3,):
+            raise InputError(f"camera must be a (3,) point, got shape {np.shape(self.camera)}")
+        self.camera = np.asarray(self.camera, np.float64)
         self.joint_axis = np.zeros((J, 3)) if self.joint_axis is None else self.joint_axis
         self.joint_pivot = np.zeros((J, 3)) if self.joint_pivot is None else self.joint_pivot
         self.joint_state = np.zeros(J) if self.joint_state is None else self.joint_state
@@ -216,8 +218,8 @@ class Stage:
 
     @property
     def purpose(self) -> str:
-        """The first line of the stage function's docstring."""
-        return (self.fn.__doc__ or "").strip().splitlines()[0] if self.fn.__doc__ else ""
+        """The first paragraph of the stage function's docstring, as one line."""
+        return " ".join((self.fn.__doc__ or "").strip().split("\n\n")[0].split())
 
     @property
     def module(self) -> str:
@@ -268,8 +270,10 @@ def _coerce(value: Any, current: Any, where: str) -> Any:
         if not isinstance(value, bool):
             raise InputError(f"{where}: must be true or false, got {value!r}")
         return value
-    if isinstance(current, int) and not isinstance(current, bool) and isinstance(value, int) and not isinstance(value, bool):
-        return value
+    if isinstance(current, int) and not isinstance(current, bool):
+        if isinstance(value, bool) or not isinstance(value, int | float) or not float(value).is_integer():
+            raise InputError(f"{where}: must be a whole number, got {value!r}")
+        return int(value)
     if isinstance(current, int | float) and not isinstance(current, bool):
         if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
             raise InputError(f"{where}: must be a finite number, got {value!r}")
@@ -302,7 +306,10 @@ def replace_field(params: Any, path: Sequence[str], value: Any, where: str) -> A
         if dataclasses.is_dataclass(current):
             raise InputError(f"{where}: {path[0]!r} is a group of parameters; set one of them")
         new = None if value in (None, "null") and _optional(params, path[0]) else _coerce(value, current, where)
-    return dataclasses.replace(params, **{path[0]: new})
+    try:
+        return dataclasses.replace(params, **{path[0]: new})
+    except InputError as e:
+        raise InputError(f"{where}: {e}") from None
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, str]:

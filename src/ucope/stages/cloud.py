@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..geometry.denoise import smooth_points, surface_noise
 from ..geometry.planes import find_support_plane
 from ..vocab import MIN_POINTS
@@ -38,6 +39,12 @@ class CleanCloudParams:
     plane_threshold_rel: float = 0.02
     plane_one_side: float = 0.95
     plane_beyond: float = 0.3
+
+    def __post_init__(self) -> None:
+        if self.noise_above_m is not None and not 0.0 <= self.noise_above_m < 1.0:
+            raise InputError(f"noise_above_m must be metres in [0, 1) or null, got {self.noise_above_m}")
+        if self.smooth_k < 3 or self.smooth_iterations < 0 or self.plane_iterations < 1:
+            raise InputError("smooth_k must be >= 3, smooth_iterations >= 0 and plane_iterations >= 1")
 
 
 @stage("clean_cloud", kind="learned-prior", params=CleanCloudParams, phase="cloud")

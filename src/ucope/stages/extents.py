@@ -470,6 +470,12 @@ class FitBoxesParams:
     anchor_min_input: int = 600
     anchor_max_noise_m: float = 1.5e-3
 
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.fit_below <= 1.0 and self.anchor_max_noise_m >= 0.0):
+            raise InputError(
+                f"fit_below must be in [0, 1] and anchor_max_noise_m >= 0, got {self.fit_below}, {self.anchor_max_noise_m}"
+            )
+
 
 @stage(
     "fit_boxes",

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError
 from ..geometry.kinematics import joint_state_from_poses
 from ..priors import CategoryPriors
 from ..voting import VotingOptions, vote_joints, vote_parts
@@ -35,6 +36,10 @@ class VotePartsParams:
     segment_pairs: bool = True
     score_filter: bool = True
     options: VotingOptions = field(default_factory=VotingOptions)
+
+    def __post_init__(self) -> None:
+        if not 10 <= self.num_pairs <= 1_000_000:
+            raise InputError(f"num_pairs must be from 10 to 1000000, got {self.num_pairs}")
 
 
 @stage("vote_parts", kind="paper", params=VotePartsParams, reads=("parts.vote_range_m", "parts.mean_size_m"))

@@ -173,6 +173,10 @@ class RevolutionFitParams:
 
     factor: float = 1.2
 
+    def __post_init__(self) -> None:
+        if not self.factor > 1.0:
+            raise InputError(f"factor must be > 1, got {self.factor}")
+
 
 @stage(
     "revolution_fit",

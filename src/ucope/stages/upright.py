@@ -241,6 +241,10 @@ class UprightParams:
     margin_deg: float = UPRIGHT_MARGIN_DEG
     clip: float = SHAPE_CLIP
 
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.margin_deg <= 180.0 and self.clip > 0.0):
+            raise InputError(f"margin_deg must be in [0, 180] and clip > 0, got {self.margin_deg}, {self.clip}")
+
 
 @stage(
     "upright",
