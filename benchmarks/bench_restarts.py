@@ -11,10 +11,10 @@ its ground-truth box diagonal (:func:`ucope.eval.evaluate.view_success`, as ``uc
 
 Reported per model: the success of each draw; the best of ``k`` draws kept by the highest object score (the
 mean over every choice of ``k`` draws); the success if any draw succeeds; and the restart rule of
-``Estimator(restarts=N)`` simulated on the recorded draws (a further draw while the best score so far is below
+``search.restarts=N`` simulated on the recorded draws (a further draw while the best score so far is below
 a threshold, up to ``m`` draws; the highest-scored stands), averaged over every order of the draws, with the
-draws it takes per view. Writes ``benchmarks/results_restarts.json``; ``RESTART_BELOW`` in
-``ucope/estimation/estimator.py`` quotes it.
+draws it takes per view. Writes ``benchmarks/results_restarts.json``; the search policy
+(``ucope.estimation.search.SearchPolicy``) chose its rule on such draws.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def draws_of(model: str, samples: list[dict], draws: int) -> tuple[np.ndarray, n
     ok = np.zeros((len(samples), draws), dtype=bool)
     score = np.zeros((len(samples), draws))
     for d in range(draws):
-        est = Estimator.load(model, seed=d, restarts=0)
+        est = Estimator.load(model, seed=d, overrides={"search.restarts": 0})
         for i, s in enumerate(samples):
             res = est.predict_sample(s)  # its points and normals, as ucope eval
             ok[i, d] = view_success(sample_errors(res, s)["parts"])
@@ -63,7 +63,7 @@ def best_of(ok: np.ndarray, score: np.ndarray, k: int) -> float:
 
 
 def restart_rule(ok: np.ndarray, score: np.ndarray, below: float, most: int) -> tuple[float, float]:
-    """The rule of ``Estimator(restarts=most - 1)`` with ``RESTART_BELOW = below`` on the recorded draws:
+    """The rule of ``search.restarts=most - 1`` with ``search.restart_below = below`` on the recorded draws:
     ``(success, draws per view)``, the mean over every order of ``most`` of the draws."""
     n, rows = len(ok), np.arange(len(ok))
     success, used = [], []

@@ -38,12 +38,12 @@ from ucope import __version__
 from ucope.data.corrupt import KINDS, CorruptionContext, background_pool, corrupt
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.scenes import add_adjacent_distractor
-from ucope.estimation.confidence import auroc
 from ucope.eval.evaluate import mug_handle_kept
 from ucope.eval.metrics import rotation_error_deg, translation_error_m
 from ucope.objects.categories import get_category
 from ucope.render.noise import DepthNoise
 from ucope.render.views import ViewConfig
+from ucope.stages.confidence import auroc
 
 ROOT = Path(__file__).resolve().parent.parent
 FORMAT = "ucope-robustness/1"
@@ -170,7 +170,9 @@ def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir:
     category = name
     spec = get_category(category)
     K = spec.num_parts
-    est = ucope.Estimator.load(str(model_dir / f"{name}.json") if model_dir is not None else name, num_pairs=pairs)
+    est = ucope.Estimator.load(
+        str(model_dir / f"{name}.json") if model_dir is not None else name, overrides={"vote_parts.num_pairs": pairs}
+    )
     view_cfg = ViewConfig(noise=DepthNoise(enabled=False))
     # the benchmark adds its own adjacent distractor and background pool: the generator's are off
     gen = GenerateConfig(

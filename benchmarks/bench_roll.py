@@ -63,9 +63,9 @@ def summarize(records: list[dict]) -> dict:
 def run_model(name: str, num: int, seed: int, rolls, pairs: int, model_dir: Path | None = None) -> dict:
     src = str(model_dir / f"{name}.json") if model_dir else name
     ests = {
-        "no_carry": Estimator.load(src, num_pairs=pairs, upright=False),
-        "default": Estimator.load(src, num_pairs=pairs),
-        "up_given": Estimator.load(src, num_pairs=pairs),
+        "no_carry": Estimator.load(src, drop=["upright"], overrides={"vote_parts.num_pairs": pairs}),
+        "default": Estimator.load(src, overrides={"vote_parts.num_pairs": pairs}),
+        "up_given": Estimator.load(src, overrides={"vote_parts.num_pairs": pairs}),
     }
     cat = ests["default"].category
     gen = GenerateConfig(category=cat, split="test", num=num, seed=seed, views_per_instance=1)

@@ -8,7 +8,7 @@ For every model, ``--num`` unseen test views of its category (generator defaults
 per instance, seed ``--seed``) are scaled about the object's centre by each factor of ``--factors``
 (:func:`ucope.data.sample.scale_sample`: points, part poses, sizes, pivots and prismatic states; the view's
 perspective is kept) and estimated twice: as they are (``rescale=False``) and with the estimator's
-rescaling into the training sizes (``rescale=True``, :meth:`ucope.estimation.Estimator.input_scale`) and
+rescaling into the training sizes (``search.rescale``, :meth:`ucope.estimation.Estimator.input_scale`) and
 the estimator's other defaults (its scale search among them).
 A view succeeds when every part is within 10 degrees and 10 % of its ground-truth box diagonal
 (:func:`ucope.eval.evaluate.sample_errors`: symmetric parts and a mug with a hidden handle by their y axis).
@@ -75,7 +75,7 @@ def summarize(records: list[dict]) -> dict:
 
 def run_model(name: str, num: int, seed: int, factors, pairs: int, model_dir: Path | None) -> dict:
     src = str(model_dir / f"{name}.json") if model_dir else name
-    ests = {on: Estimator.load(src, num_pairs=pairs, rescale=on) for on in (False, True)}
+    ests = {on: Estimator.load(src, overrides={"vote_parts.num_pairs": pairs, "search.rescale": on}) for on in (False, True)}
     cat = ests[True].category
     gen = GenerateConfig(category=cat, split="test", num=num, seed=seed, views_per_instance=1)
     samples = [make_sample(gen, i) for i in range(num)]

@@ -6,10 +6,10 @@
 For every model: ``--num`` unseen views of the category's ``val`` split (one per instance, the default
 sensor noise, their background pools), each left clean with chance 1/4 or else corrupted by one kind of
 :data:`ucope.data.corrupt.KINDS` at one of its benchmark levels (drawn from ``--seed``); the model's raw
-estimate of each; the per-part features of :mod:`ucope.estimation.confidence` and whether the part
+estimate of each; the per-part features of :mod:`ucope.stages.confidence` and whether the part
 succeeded (< 10 degrees and < 10 % of its box diagonal; the y axis alone for parts symmetric about y and
 for a mug whose handle the corrupted cloud hides, judged as the robustness benchmark judges it). A
-:class:`~ucope.estimation.confidence.Calibration` is fitted on them, its threshold set where the object
+:class:`~ucope.stages.confidence.Calibration` is fitted on them, its threshold set where the object
 score separates successful from failed views best (Youden's J), and written into the model JSON's
 ``info.calibration`` with the fitting figures (views, success rate, AUROC on the fitting views).
 The test-split AUROC comes from the robustness benchmark.
@@ -34,11 +34,11 @@ from ucope.data.augment import sample_context  # noqa: E402
 from ucope.data.corrupt import KINDS, corrupt  # noqa: E402
 from ucope.data.generate import GenerateConfig, make_sample  # noqa: E402
 from ucope.estimation import Estimator  # noqa: E402
-from ucope.estimation.confidence import SUCCESS_ROT_DEG, SUCCESS_TRANS_REL, Calibration, auroc  # noqa: E402
 from ucope.eval.evaluate import mug_handle_kept  # noqa: E402
 from ucope.eval.metrics import part_errors  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.model.checkpoint import find_model  # noqa: E402
+from ucope.stages.confidence import SUCCESS_ROT_DEG, SUCCESS_TRANS_REL, Calibration, auroc  # noqa: E402
 
 NEEDS_BACKGROUND = ("floor", "bleed")
 """Kinds that add points from the view's background pool; a view without one (nothing but the object
@@ -73,7 +73,8 @@ def part_success(result, sample: dict, src: np.ndarray) -> np.ndarray:
 
 
 def calibrate(model: str, num: int, seed: int, pairs: int) -> dict:
-    est = Estimator.load(model, num_pairs=pairs, calibration=None)
+    loaded = Estimator.load(model, overrides={"vote_parts.num_pairs": pairs})
+    est = Estimator(loaded.model, dataclasses.replace(loaded.pipeline, calibration=None))  # raw scores: no search
     cat = est.category
     cfg = GenerateConfig(category=cat, split="val", num=num, seed=seed, views_per_instance=1)
     feats, succ, part_idx, obj_rows = [], [], [], []

@@ -14,19 +14,12 @@
 # PACKAGE=0 to leave src/ucope/pretrained alone, RESULTS / REPORTS (the page and its slim reports). Every step resumes: finished data sets, runs and reports
 # are kept, an interrupted training continues from its checkpoint.
 #
-# ROBUST_CATS (default: the ten shipped models that went through it) get the robustness stage of
-# 2026-12-03 after their recipe: 3,000 steps from that model with `--new-priors --augment 0.65` on 5,000
-# generator-2 views (lr 5e-4, x0.1 at 80 %; the dishwasher gentler: lr 2e-4, --augment 0.5), then, for
-# an articulated model, its refinement default from its refine-off / on reports, and a score calibration
-# (scripts/calibrate_scores.py, 300 validation views) of the run with its defaults: PLANE_CATS leave a
-# support plane out, DENOISE_CATS smooth a cloud noisier than their validation views, GROW_CATS grow their
-# boxes to hold their points (ucope.voting.grow_to_points), ALIGN_CATS align their part rotations to the
-# normals of their flat faces (ucope.voting.align_parts_to_faces), WIDE_CATS search three scales where the
-# first estimate scores low (Estimator(wide_scale_search=True)), FIT_CATS set the box axes a view sees whole
-# from their points (ucope.voting.fit_seen_extents), ANCHOR_CATS put the root part's faces that the camera faces
-# where its points put them (ucope.voting.anchor_faced_faces; both tables are measured by `ucope train`),
-# FREE_CATS turn a part they barely see about its joint to where the points say it can be
-# (ucope.voting.place_weak_parts; the calibration is fitted with it on).
+# ROBUST_CATS (default: the ten shipped models that went through it) get the robustness stage after their recipe:
+# 3,000 steps from that model with `--new-priors --augment 0.65` on 5,000 generator-2 views (lr 5e-4, x0.1 at 80 %;
+# the dishwasher gentler: lr 2e-4, --augment 0.5). Every final run is then finished the same way (finish_run below):
+# the surface noise of its validation views measured (scripts/set_denoise_default.py), its score calibrated
+# (scripts/calibrate_scores.py), its pipeline chosen on validation views (scripts/choose_pipeline.py: which stages it
+# keeps, how much it searches) and its calibration fitted again on the chosen pipeline.
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
 # ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
@@ -51,23 +44,10 @@ ROUND2_CATS=${ROUND2_CATS-"eyeglasses scissors dishwasher drawer laptop laptop_r
 ROUND3_CATS=${ROUND3_CATS-"dishwasher laptop camera drawer"}  # a third stage after the second (ROUND2_CATS only); empty: none
 ROUND4_CATS=${ROUND4_CATS-"dishwasher"}  # a fourth stage after the third (ROUND3_CATS only); empty: none
 ROUND5_CATS=${ROUND5_CATS-"dishwasher"}  # a fifth stage after the fourth (ROUND4_CATS only); empty: none
-PLANE_CATS=${PLANE_CATS-"mug bowl bottle camera can"}
-DENOISE_CATS=${DENOISE_CATS-"mug camera can bottle bowl"}  # smooth clouds noisier than their validation views (set_denoise_default.py)
-GROW_CATS=${GROW_CATS-"dishwasher drawer laptop_rigid camera"}  # boxes grown to hold their points (docs/results.md)
-ALIGN_CATS=${ALIGN_CATS-"camera dishwasher drawer"}  # rotations aligned to the faces (docs/results.md)
-WIDE_CATS=${WIDE_CATS-"eyeglasses laptop dishwasher camera bottle mug drawer"}  # the scale search at 0.8, 1 and 1.25x the typical size (docs/results.md)
-FIT_CATS=${FIT_CATS-"dishwasher bottle drawer"}  # box axes a view sees whole set from their points (docs/results.md)
-ANCHOR_CATS=${ANCHOR_CATS-"eyeglasses"}  # the root part's faced faces anchored to its points (docs/results.md)
-RESTART_CATS=${RESTART_CATS-"drawer"}  # further draws of the network's points while the score is low (docs/results.md)
-FREE_CATS=${FREE_CATS-"laptop dishwasher"}  # parts barely seen turned about their joint by free space (docs/results.md)
-SEAT_CATS=${SEAT_CATS-"dishwasher"}  # parts barely seen and off their hinge seated back on it (docs/results.md)
-PICK_CATS=${PICK_CATS-"dishwasher"}  # estimates compared by the parts given points only (docs/results.md)
-CONE_CATS=${CONE_CATS-"laptop scissors"}  # parts carried as soon as they leave their upright cone (docs/results.md)
-SLIDE_CATS=${SLIDE_CATS-"drawer"}  # hidden drawers slid back to where the camera would not have seen them (docs/results.md)
-OOD_NUM=${OOD_NUM:-100}  # views of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
+OOD_NUM=${OOD_NUM:-150}  # views (one per object) of the out-of-distribution split (held-out shape families, sizes 0.5-2x); 0: none
 ROBUST_NUM=${ROBUST_NUM:-5000}
 ABLATION_CAT=${ABLATION_CAT:-eyeglasses}
-TEST_NUM=${TEST_NUM:-200}
+TEST_NUM=${TEST_NUM:-150}
 DEVICE=${DEVICE:-auto}
 PACKAGE=${PACKAGE:-1}
 RESULTS=${RESULTS:-docs/results.md}
@@ -192,22 +172,15 @@ robust() {  # robust CATEGORY [OUT]: the robustness stage, runs/CATEGORY_prerobu
       --batch-size 8 --device "$DEVICE" $(category_args "$c") --quiet $resume
   fi
   if [ "${2:-$1}" != "$c" ]; then return 0; fi  # a later stage follows: that one is calibrated
-  calibrate_final "$c"
+  finish_run "$c"
 }
 
-calibrate_final() {  # calibrate_final CATEGORY: runs/CATEGORY's defaults and score calibration
-  local c=$1
-  case $c in laptop|eyeglasses|dishwasher|scissors|drawer)  # calibrate the run as it will ship: its refinement default
-    evaluate "$c" "$c" "${c}_norefine" --no-refine
-    evaluate "$c" "$c" "${c}_refine" --refine ;;
-  esac
-  # shellcheck disable=SC2086
-  "$PY" scripts/package_models.py --set-defaults --runs "$WORK/runs" --reports "$WORK/reports" --categories "$c" \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
-    --free-space $FREE_CATS --seat-parts $SEAT_CATS --free-slides $SLIDE_CATS --pick-seen-parts $PICK_CATS --carry-in-cone $CONE_CATS --restarts $RESTART_CATS
-  if [[ " $DENOISE_CATS " == *" $c "* ]]; then
-    "$PY" scripts/set_denoise_default.py --model "$WORK/runs/$c/model.json" --data "$WORK/data/${c}_val"
-  fi
+finish_run() {  # finish_run CATEGORY: runs/CATEGORY's noise threshold, calibration and pipeline, chosen on val views
+  local c=$1 model="$WORK/runs/$1/model.json"
+  if grep -q '"chosen_on": "val' "$model"; then return 0; fi
+  "$PY" scripts/set_denoise_default.py --model "$model" --data "$WORK/data/${c}_val"
+  "$PY" scripts/calibrate_scores.py --models "$WORK/runs/$c" --num "${CALIBRATE_NUM:-300}" --threads 1
+  "$PY" scripts/choose_pipeline.py --model "$WORK/runs/$c" --report "$WORK/reports/${c}_val_pipeline.json"
   "$PY" scripts/calibrate_scores.py --models "$WORK/runs/$c" --num "${CALIBRATE_NUM:-300}" --threads 1
 }
 
@@ -299,13 +272,13 @@ later_stages() {  # later_stages CATEGORY: runs/CATEGORY_round1 -> (round 2, 3, 
   else
     later_stage "$c" round2 "${c}_round1" "$c" 3
   fi
-  calibrate_final "$c"
+  finish_run "$c"
 }
 
-evaluate() {  # evaluate RUN_NAME CATEGORY REPORT_NAME [extra eval args]
-  local run=$1 cat=$2 rep="$WORK/reports/$3.json"; shift 3
+evaluate() {  # evaluate MODEL CATEGORY REPORT_NAME SPLIT [extra eval args]: one report on the split's views
+  local model=$1 cat=$2 rep="$WORK/reports/$3.json" split=$4; shift 4
   if [ -f "$rep" ]; then return 0; fi
-  "$UCOPE" eval --model "$WORK/runs/$run" --data "$WORK/data/${cat}_test" --out "$rep" --quiet "$@"
+  "$UCOPE" eval --model "$model" --data "$WORK/data/${cat}_$split" --out "$rep" --quiet "$@"
 }
 
 mkdir -p "$WORK/reports"
@@ -313,8 +286,11 @@ for c in $CATS; do
   read -r ntrain _ nval <<<"$(recipe "$c")"
   data "$c" train "$ntrain"
   data "$c" val "$nval"
-  data "$c" test "$TEST_NUM"
-  if [ "$OOD_NUM" -gt 0 ]; then data "$c" ood "$OOD_NUM"; fi
+  # the reported views: one per object, a seed of their own
+  "$UCOPE" generate --category "$c" --split test --num "$TEST_NUM" --seed 2026 --views-per-instance 1 --out "$WORK/data/${c}_test" --workers 2 --quiet
+  if [ "$OOD_NUM" -gt 0 ]; then
+    "$UCOPE" generate --category "$c" --split ood --num "$OOD_NUM" --seed 2026 --views-per-instance 1 --out "$WORK/data/${c}_ood" --workers 2 --quiet
+  fi
   final=$c
   if [[ " $ROUND2_CATS " == *" $c "* ]]; then final="${c}_round1"; fi
   if [[ " $ROBUST_CATS " == *" $c "* ]]; then
@@ -324,60 +300,45 @@ for c in $CATS; do
     train_category "$c" "$final"
   fi
   if [[ " $ROUND2_CATS " == *" $c "* ]]; then later_stages "$c"; fi
-  evaluate "$c" "$c" "$c"
-done
-for c in $CATS; do  # the kinematic refinement off / on, measured on every articulated category
-  case $c in laptop|eyeglasses|dishwasher|scissors|drawer)
-    evaluate "$c" "$c" "${c}_norefine" --no-refine
-    evaluate "$c" "$c" "${c}_refine" --refine ;;
-  esac
 done
 if [ "$PACKAGE" = 1 ]; then
-  # The package decides each model's refinement default from its _norefine / _refine reports; the
-  # reports of the tables then use the shipped models as a user gets them (their default settings and
-  # stored weights, float16 where the check allowed it).
   # shellcheck disable=SC2086
-  "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --categories $CATS \
-    --remove-plane $PLANE_CATS --grow-boxes $GROW_CATS --align-faces $ALIGN_CATS --wide-scale-search $WIDE_CATS --fit-extents $FIT_CATS --anchor-faces $ANCHOR_CATS \
-    --free-space $FREE_CATS --seat-parts $SEAT_CATS --free-slides $SLIDE_CATS --pick-seen-parts $PICK_CATS --carry-in-cone $CONE_CATS --restarts $RESTART_CATS
-  for c in $CATS; do
-    rm -f "$WORK/reports/$c.json"
-    "$UCOPE" eval --model "$c" --data "$WORK/data/${c}_test" --out "$WORK/reports/$c.json" --quiet
-  done
+  "$PY" scripts/package_models.py --runs "$WORK/runs" --reports "$WORK/reports" --check-data "$WORK/data" --categories $CATS
+fi
+for c in $CATS; do  # test and ood: measured once, on the models as shipped (or as trained, PACKAGE=0)
+  model="$WORK/runs/$c"
+  if [ "$PACKAGE" = 1 ]; then model=$c; fi
+  evaluate "$model" "$c" "${c}_test" test
+  if [ "$OOD_NUM" -gt 0 ]; then evaluate "$model" "$c" "${c}_ood" ood; fi
+done
+if [ "$PACKAGE" = 1 ]; then
+  # shellcheck disable=SC2086
   "$PY" scripts/package_models.py --figures-only --reports "$WORK/reports" --categories $CATS
 fi
-if [ "$OOD_NUM" -gt 0 ]; then  # the OOD column of results.md: the shipped models (or the runs, PACKAGE=0)
-  for c in $CATS; do
-    model="$WORK/runs/$c"
-    if [ "$PACKAGE" = 1 ]; then model=$c; fi
-    rep="$WORK/reports/${c}_ood.json"
-    [ -f "$rep" ] || "$UCOPE" eval --model "$model" --data "$WORK/data/${c}_ood" --out "$rep" --quiet
-  done
-fi
-# The regression baselines, after packaging: each starts from the voting model it is compared with (its
-# encoder, segmentation and joint heads; `--init ... --head regression`), trains 3,000 more steps on that
-# model's data and is evaluated with that model's plane-removal and refinement settings.
+# The regression baselines: each starts from the voting model it is compared with (its encoder, segmentation and
+# joint heads; `--init ... --head regression`), trains 3,000 more steps on that model's data and runs that model's
+# stages with the regressed poses in place of the voted ones.
 for c in $BASELINE_CATS; do
   init="$WORK/runs/$c"
   if [ "$PACKAGE" = 1 ]; then init=$c; fi
   train "$c" "${c}_regression" --init "$init" --head regression --steps "${STEPS:-3000}" --lr-step-epochs 3.84
-  # shellcheck disable=SC2046
-  evaluate "${c}_regression" "$c" "${c}_regression" $("$PY" -c "import ucope; e = ucope.Estimator.load('$init'); \
-print('--refine' if e.refine else '--no-refine', '--remove-plane' if e.remove_plane else '--no-remove-plane')")
+  stages=$("$PY" -c "import ucope; print(','.join('regress_parts' if s == 'vote_parts' else s for s in ucope.Estimator.load('$init').pipeline.stages if s != 'align_faces'))")
+  evaluate "$WORK/runs/${c}_regression" "$c" "${c}_regression" test --stages "$stages"
 done
 if [ -d "$WORK/runs/$ABLATION_CAT" ]; then  # Table 3, with the model as shipped (or as trained, PACKAGE=0)
   model="$WORK/runs/$ABLATION_CAT"
   if [ "$PACKAGE" = 1 ]; then model=$ABLATION_CAT; fi
-  t3() {  # t3 NAME [eval args]: one row of Table 3, every row on the same test views
-    local rep="$WORK/reports/${ABLATION_CAT}_t3_$1.json"; shift
-    [ -f "$rep" ] || "$UCOPE" eval --model "$model" --data "$WORK/data/${ABLATION_CAT}_test" --out "$rep" --quiet "$@"
-  }
+  uncapped="vote_parts.options.max_axis_pairs=2147483647 vote_parts.options.centre.max_grid_pairs=2147483647"
+  uncapped="$uncapped vote_parts.options.centre.max_refine_pairs=2147483647 vote_parts.options.axis.max_coarse_pairs=2147483647"
+  uncapped="$uncapped vote_parts.options.axis.max_refine_pairs=2147483647"
   for n in 5000 10000 20000 40000; do
-    t3 "pairs$n" --pairs "$n"
-    t3 "pairs${n}_nocaps" --pairs "$n" --no-vote-caps
+    evaluate "$model" "$ABLATION_CAT" "${ABLATION_CAT}_t3_pairs$n" test --pairs "$n"
+    # shellcheck disable=SC2086
+    evaluate "$model" "$ABLATION_CAT" "${ABLATION_CAT}_t3_pairs${n}_nocaps" test --pairs "$n" --set $uncapped
   done
-  t3 no_score_filter --no-score-filter
-  t3 pairs_from_cloud --pairs-from-cloud
-  t3 no_awareness --no-awareness
+  evaluate "$model" "$ABLATION_CAT" "${ABLATION_CAT}_t3_no_score_filter" test --set vote_parts.score_filter=false
+  evaluate "$model" "$ABLATION_CAT" "${ABLATION_CAT}_t3_pairs_from_cloud" test --set vote_parts.segment_pairs=false
+  evaluate "$model" "$ABLATION_CAT" "${ABLATION_CAT}_t3_no_awareness" test \
+    --set vote_parts.score_filter=false vote_parts.segment_pairs=false vote_joints.awareness=false
 fi
-"$PY" scripts/make_results.py --reports "$WORK/reports" --runs "$WORK/runs" --save-reports "$REPORTS" --out "$RESULTS"
+"$PY" scripts/make_results.py --reports "$WORK/reports" --out "$RESULTS"

@@ -3,16 +3,14 @@
     python scripts/set_denoise_default.py --model src/ucope/pretrained/mug.json --data DATA/mug_val
     python scripts/set_denoise_default.py --model src/ucope/pretrained/laptop.json --off
 
-The estimator smooths a cloud whose surface noise (:func:`ucope.geometry.denoise.surface_noise`) is above
-``Estimator.denoise_above_m``; :meth:`ucope.estimation.Estimator.load` takes it from the model's
-``info.defaults.denoise_above_m``. This script measures the surface noise of ``--num`` views of ``DATA``
-(views of the model's category made by ``ucope generate``, with the depth sensor's noise: the validation
-split), as the estimator measures it (the same preparation, clouds of at least
-:data:`ucope.estimation.estimator.DENOISE_MIN_POINTS` points), and sets the threshold to ``--margin``
-times its 99th percentile: a cloud is smoothed only when it is noisier than nearly every view the model
-was trained on. ``--off`` removes the default. The JSON is rewritten atomically;
-``info.denoise_measured_on`` records the data, the views and the percentiles. docs/robustness.md has the
-measured effect and the categories where it is on.
+The ``clean_cloud`` stage smooths a cloud whose surface noise (:func:`ucope.geometry.denoise.surface_noise`) is
+above its ``noise_above_m``, which a model card stores in ``info.pipeline.params``. This script measures the surface
+noise of ``--num`` views of ``DATA`` (views of the model's category made by ``ucope generate``, with the depth
+sensor's noise: the validation split), as the stage measures it (the same preparation, clouds of at least
+``smooth_min_points`` points), and sets the threshold to ``--margin`` times its 99th percentile: a cloud is
+smoothed only when it is noisier than nearly every view the model was trained on. ``--off`` removes the value
+(the stage's default applies where the model lists it). The JSON is rewritten atomically;
+``info.denoise_measured_on`` records the data, the views and the percentiles.
 """
 
 from __future__ import annotations
@@ -27,10 +25,13 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from ucope.data.dataset import load_dataset  # noqa: E402
-from ucope.estimation.estimator import DENOISE_MIN_POINTS  # noqa: E402
 from ucope.estimation.inputs import prepare_points  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.geometry.denoise import surface_noise  # noqa: E402
+from ucope.stages.cloud import CleanCloudParams  # noqa: E402
+
+MIN_POINTS = CleanCloudParams().smooth_min_points
+KEY = "clean_cloud.noise_above_m"
 
 
 def measure(data: str, num: int, max_points: int = 4096) -> np.ndarray:
@@ -40,7 +41,7 @@ def measure(data: str, num: int, max_points: int = 4096) -> np.ndarray:
     out = []
     for i in rows:
         pts = prepare_points(ds[int(i)]["points"], None, max_points, 0, estimate=False).points
-        if len(pts) >= DENOISE_MIN_POINTS:
+        if len(pts) >= MIN_POINTS:
             out.append(surface_noise(pts))
     return np.asarray(out)
 
@@ -55,9 +56,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     meta = read_json(args.model)
     info = meta.setdefault("info", {})
-    defaults = info.setdefault("defaults", {})
+    params = info.setdefault("pipeline", {"stages": None}).setdefault("params", {})
     if args.off:
-        defaults.pop("denoise_above_m", None)
+        params.pop(KEY, None)
         info.pop("denoise_measured_on", None)
         atomic_write_json(args.model, meta)
         print(f"{args.model}: smoothing off by default")
@@ -71,10 +72,10 @@ def main(argv=None) -> int:
         return 2
     noise = measure(args.data, args.num)
     if len(noise) < 20:
-        print(f"error: only {len(noise)} views of {args.data} have {DENOISE_MIN_POINTS} points or more", file=sys.stderr)
+        print(f"error: only {len(noise)} views of {args.data} have {MIN_POINTS} points or more", file=sys.stderr)
         return 2
     p50, p99 = np.percentile(noise, [50, 99])
-    defaults["denoise_above_m"] = round(float(args.margin * p99), 6)
+    params[KEY] = round(float(args.margin * p99), 6)
     info["denoise_measured_on"] = {
         "data": str(args.data),
         "num_views": int(len(noise)),
@@ -84,7 +85,7 @@ def main(argv=None) -> int:
     }
     atomic_write_json(args.model, meta)
     print(
-        f"{args.model}: smooth above {1e3 * defaults['denoise_above_m']:.2f} mm "
+        f"{args.model}: smooth above {1e3 * params[KEY]:.2f} mm "
         f"(views like the training ones: median {1e3 * p50:.2f} mm, 99th percentile {1e3 * p99:.2f} mm, {len(noise)} views)"
     )
     return 0

@@ -9,7 +9,7 @@
 ``JointPrior.pivot_in_parent`` / ``pivot_in_child``; with ``--radius`` also ``radius_typical_m``:
 :func:`ucope.priors.measure_priors`) with all the others. This script adds them to a model trained before
 they existed, leaving every other prior, the weights and the model card alone, so that its predictions
-change only where :func:`ucope.voting.kinematic.carry_upright` re-places a part (or, with the seen extents,
+change only where :func:`ucope.stages.upright.carry_upright` re-places a part (or, with the seen extents,
 where ``fit_extents`` / ``anchor_faces`` are on). ``--extent-only`` writes the seen extents, faced gaps and
 child size ratios alone and records them in ``info.seen_extent_from``; ``--stacks-only`` writes the stacks of
 prismatic children alone (``CategoryPriors.stacks``, :func:`ucope.priors.stack_statistics`: the drawers of a

@@ -1,5 +1,4 @@
-"""scripts/package_models.py's model defaults: the refinement from two reports, the plane removal and
-the box growth and the face alignment from category lists, the other defaults kept."""
+"""scripts/package_models.py: the figures a shipped model card stores from its test and ood reports."""
 
 from __future__ import annotations
 
@@ -9,39 +8,44 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 
-from package_models import RESTARTS_ON, set_defaults  # noqa: E402
+from package_models import card_figures, refresh_figures  # noqa: E402
 
 
-def _report(rot, success, iou):
-    return {"parts": {"rotation_deg": {"mean": rot}, "iou": {"mean": iou}}, "success": {"fraction": success}}
+def _report(category="mug", success=0.9):
+    return {
+        "category": category,
+        "data": {"num_samples": 150, "split": "test"},
+        "parts": {
+            "rotation_deg": {"mean": [3.0]},
+            "translation_m": {"mean": [0.01]},
+            "iou": {"mean": [0.8]},
+            "fraction": {"10deg10cm": [0.95]},
+        },
+        "success": {"fraction": success, "num_objects": 150, "interval_95_objects": [success - 0.05, success + 0.04]},
+        "time_ms": {"mean": {"total": 120.0}},
+    }
 
 
-def test_defaults_from_reports_and_lists_keep_the_others(tmp_path):
-    (tmp_path / "drawer_norefine.json").write_text(json.dumps(_report([10.0, 12.0], 0.2, [0.6, 0.5])))
-    (tmp_path / "drawer_refine.json").write_text(json.dumps(_report([9.0, 10.0], 0.3, [0.6, 0.5])))
-    info = {"defaults": {"denoise_above_m": 0.002}}
-    set_defaults(
-        info,
-        tmp_path,
-        "drawer",
-        remove_plane=["mug"],
-        grow_boxes=["drawer", "laptop"],
-        align_faces=["drawer"],
-        wide_scale_search=["mug"],
-        fit_extents=["drawer"],
-        free_space=["laptop"],
-    )
-    d = info["defaults"]
-    assert d["refine"] is True and d["remove_plane"] is False and d["grow_boxes"] is True and d["align_faces"] is True
-    assert d["wide_scale_search"] is False and d["fit_extents"] is True and d["free_space"] is False
-    assert d["denoise_above_m"] == 0.002 and d["decided_from"] == ["drawer_norefine.json", "drawer_refine.json"]
-    set_defaults(info, tmp_path, "drawer", grow_boxes=[])  # an empty list turns it off; omitted lists leave it
-    assert info["defaults"]["grow_boxes"] is False and info["defaults"]["remove_plane"] is False
-    assert info["defaults"]["align_faces"] is True
-    other = {}
-    set_defaults(other, tmp_path, "mug")  # no reports, no lists: nothing to set
-    assert other == {}
-    set_defaults(info, tmp_path, "drawer", restarts=["drawer"])  # a count, not a switch
-    assert info["defaults"]["restarts"] == RESTARTS_ON and info["defaults"]["grow_boxes"] is False
-    set_defaults(info, tmp_path, "drawer", restarts=["mug"])
-    assert info["defaults"]["restarts"] == 0
+def test_figures_keep_success_and_its_interval_over_objects():
+    f = card_figures(_report())
+    assert f["success"] == 0.9 and f["num_objects"] == 150 and f["success_interval_95_objects"] == [0.85, 0.94]
+    assert f["rotation_deg_mean"] == [3.0] and f["time_s_mean"] == 0.12
+
+
+def test_refresh_writes_test_and_ood_figures_and_refuses_another_category(tmp_path):
+    dest, reports = tmp_path / "pretrained", tmp_path / "reports"
+    dest.mkdir()
+    reports.mkdir()
+    (dest / "mug.json").write_text(json.dumps({"config": {"priors": {"category": "mug"}}, "info": {"pipeline": {"stages": []}}}))
+    (reports / "mug_test.json").write_text(json.dumps(_report(success=0.9)))
+    (reports / "mug_ood.json").write_text(json.dumps(_report(success=0.7)))
+    assert refresh_figures(dest, reports, ["mug"]) == 0
+    info = json.loads((dest / "mug.json").read_text())["info"]
+    assert info["test"]["success"] == 0.9 and info["ood"]["success"] == 0.7 and info["pipeline"] == {"stages": []}
+    (reports / "mug_test.json").write_text(json.dumps(_report(category="bowl")))
+    try:
+        refresh_figures(dest, reports, ["mug"])
+    except SystemExit as e:
+        assert "not 'mug'" in str(e)
+    else:
+        raise AssertionError("a report on another category was taken")

@@ -213,7 +213,7 @@ class JointPrior:
             part's neighbour sits, used to undo half-turn flips (:func:`ucope.stages.flips.resolve_joint_flips`).
         child_in_parent_spread: prismatic joints: ``(3,)`` the standard deviation of ``child_in_parent``
             over the training views (same units); where it is below
-            :data:`ucope.stages.prismatic.PLACE_MAX_SPREAD` on a parent axis across the joint's axis (a
+            ``PrismaticParams.place_max_spread`` (:mod:`ucope.stages.prismatic`) on a parent axis across the joint's axis (a
             drawer always centred left-right in its cabinet), the child is placed at the mean there
             (:func:`ucope.stages.prismatic.place_prismatic_children`). ``None`` for revolute joints or
             when not measured.

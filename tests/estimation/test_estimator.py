@@ -385,6 +385,9 @@ def test_cli_options_reach_the_estimator(tiny_run):
     base = dict(pairs=None, stages=None, drop_stage=[], set=[], seed=3, device="cpu")
     o = estimator_options(argparse.Namespace(**base))
     assert o == dict(stages=None, drop=[], overrides={}, seed=3, device="cpu")
+    fast = estimator_options(argparse.Namespace(**base, fast=True))["overrides"]
+    est = Estimator.load(tiny_run, overrides=fast)
+    assert not est.pipeline.search.recrop and est.pipeline.search.scale_factors == () and est.pipeline.search.restarts == 0
     o = estimator_options(
         argparse.Namespace(**dict(base, pairs=100, stages="vote_parts,score", set=["search.recrop=false", "score.x=1"]))
     )

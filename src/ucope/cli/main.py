@@ -211,15 +211,23 @@ def cmd_models(args: argparse.Namespace) -> int:
             steps.insert(0, stage.get("steps", "?"))
             stage = stage.get("initialised_from")
         tuned = f" ({len(steps) - 1} fine-tuning stage{'s' if len(steps) > 2 else ''})" if len(steps) > 1 else ""
-        refine = " kinematic refinement on by default;" if (info.get("defaults") or {}).get("refine") else ""
+        stages = len((info.get("pipeline") or {}).get("stages") or [])
         print(
             f"{name}: {len(part_names)} part(s) ({', '.join(part_names)}); {joints}; "
-            f"{cfg['head']} head;{refine} {w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; "
-            f"trained {' + '.join(str(x) for x in steps)} steps{tuned}"
+            f"{cfg['head']} head; {stages or 'default'} stages (ucope pipeline --model {name}); "
+            f"{w['bytes'] / 1e6:.2f} MB {w.get('dtype', 'float32')}; trained {' + '.join(str(x) for x in steps)} steps{tuned}"
         )
+        for split, what in (("test", "unseen objects"), ("ood", "held-out shapes and sizes")):
+            fig = info.get(split) or {}
+            if fig.get("success") is not None:
+                lo, hi = fig.get("success_interval_95_objects") or (fig["success"], fig["success"])
+                print(
+                    f"  {split} ({fig.get('num_samples')} views of {fig.get('num_objects')} {what}): success "
+                    f"{100 * fig['success']:.0f} % (95 % over objects: {100 * lo:.0f}-{100 * hi:.0f})"
+                )
         if test:
             line = (
-                f"  test split ({test.get('num_samples')} unseen views): rotation "
+                f"  test split ({test.get('num_samples')} views): rotation "
                 f"{_fmt_list(test.get('rotation_deg_mean'), '{:.1f}')} deg, "
                 f"translation {_fmt_list(test.get('translation_m_mean'), '{:.3f}')} m, IoU "
                 f"{_fmt_list(test.get('iou_mean'), '{:.2f}')}"
@@ -503,6 +511,7 @@ def _estimator_options(p: argparse.ArgumentParser) -> None:
         help="the stages to run, in order, comma-separated (default: the model's own; `ucope pipeline --model M` lists them)",
     )
     p.add_argument("--drop-stage", nargs="+", default=[], metavar="STAGE", help="leave these stages of the model's list out")
+    p.add_argument("--fast", action="store_true", help="one estimate of one pass (no recrop, scale search or restarts)")
     p.add_argument(
         "--set",
         nargs="+",

@@ -176,9 +176,11 @@ def estimator_options(args: argparse.Namespace) -> dict:
     """The keyword arguments of :meth:`ucope.estimation.Estimator.load` that the ``predict`` / ``eval`` /
     ``pipeline`` options ask for: the model's stages changed by ``--stages`` / ``--drop-stage``, parameters by
     ``--pairs`` and ``--set``."""
+    from ..estimation.search import FAST
     from ..stages import get_stage, parse_overrides
 
-    overrides = parse_overrides(getattr(args, "set", None) or [])
+    overrides = dict(FAST) if getattr(args, "fast", False) else {}
+    overrides.update(parse_overrides(getattr(args, "set", None) or []))
     if getattr(args, "pairs", None) is not None:
         overrides["vote_parts.num_pairs"] = args.pairs
     stages = None

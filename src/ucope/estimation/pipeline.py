@@ -75,12 +75,13 @@ class Pipeline:
         doc = info.get("pipeline")
         if doc is None:
             return cls(default_stages(priors, head), calibration=cal)
-        if not isinstance(doc, Mapping) or not isinstance(doc.get("stages"), list):
-            raise InputError("the model card's pipeline must be an object with a list of stages")
+        if not isinstance(doc, Mapping) or not isinstance(doc.get("stages", []), list | None):
+            raise InputError("the model card's pipeline must be an object with a list of stages (or none: the default)")
+        stages = default_stages(priors, head) if doc.get("stages") is None else tuple(doc["stages"])
         search = SearchPolicy()
         for key, value in (doc.get("search") or {}).items():
             search = replace_field(search, [key], value, f"pipeline.search.{key}")
-        return cls(tuple(doc["stages"]), dict(doc.get("params") or {}), search, cal, str(doc.get("chosen_on", "")))
+        return cls(stages, dict(doc.get("params") or {}), search, cal, str(doc.get("chosen_on", "")))
 
     def to_dict(self) -> dict:
         """The card's ``pipeline`` entry (the calibration is stored beside it)."""

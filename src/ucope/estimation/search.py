@@ -18,9 +18,12 @@ from ..priors import cloud_radius
 from ..vocab import MIN_POINTS
 from .result import JointEstimate, PartEstimate
 
-__all__ = ["SearchPolicy", "Pass", "Estimate", "recrop", "search", "compact", "PICKS"]
+__all__ = ["SearchPolicy", "Pass", "Estimate", "recrop", "search", "compact", "PICKS", "FAST"]
 
 PICKS = ("all", "seen")
+
+FAST = {"search.recrop": False, "search.scale_factors": [], "search.restarts": 0}
+"""Overrides of the fast setting (``ucope predict --fast``): one estimate of one pass, whatever the score."""
 
 
 @dataclass(frozen=True)

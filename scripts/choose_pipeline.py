@@ -1,0 +1,211 @@
+"""Choose a model's pipeline on validation views: which stages it keeps and how much it searches.
+
+    python scripts/choose_pipeline.py --model drawer                      # a shipped model: its card is rewritten
+    python scripts/choose_pipeline.py --model work/runs/arm --num 120 --report work/reports/arm_val.json
+
+The validation views are drawn from the ``val`` split (seed ``--seed``, one view per object, never a view a
+reported figure uses); every second view is corrupted with the training augmentation's mix (occlusion, floor
+and neighbour points, outliers, noise, fewer points), so that the stages meant for real sensors are measured
+where they act. Starting from the model card's pipeline P, each candidate change is measured on the same views:
+
+* every optional stage of P left out (the paper's ``vote_parts`` / ``regress_parts``, ``vote_joints``,
+  ``joint_states`` and ``score`` always stay);
+* each sub-step of ``fit_boxes`` and ``clean_cloud`` turned off;
+* the search: one size instead of three, three instead of one, no restarts instead of some, the other pick.
+
+A change that makes the pipeline simpler or cheaper is taken when it loses no success on the validation views (a
+stage or a search that changes nothing there is not worth its time and its reading); one that adds work (three
+sizes, another pick) only when it gains. The changes taken are then measured together, and if that
+combination succeeds on fewer views than P, only the changes that gained are kept. The report holds every
+candidate's per-view outcomes, so the choice can be recomputed; the card's ``pipeline.chosen_on`` says which
+views chose it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+from ucope.data.augment import AugmentConfig, augment_sample  # noqa: E402
+from ucope.data.generate import GenerateConfig, make_sample  # noqa: E402
+from ucope.estimation import Estimator  # noqa: E402
+from ucope.estimation.pipeline import Pipeline  # noqa: E402
+from ucope.eval.evaluate import sample_errors, view_success  # noqa: E402
+from ucope.fileio import atomic_write_json  # noqa: E402
+from ucope.model.checkpoint import find_model, load_model  # noqa: E402
+
+ALWAYS = ("vote_parts", "regress_parts", "vote_joints", "joint_states", "score")
+"""Stages a choice never leaves out: the paper's, and the calibrated score the search reads."""
+
+VAL_SEED = 4242
+"""The default seed of the validation views (no reported figure uses it)."""
+
+
+def val_views(category: str, num: int, seed: int) -> list[dict]:
+    """``num`` validation views of ``category`` (one per object); every second one corrupted, each by a random
+    stream of its own."""
+    cfg = GenerateConfig(category=category, split="val", seed=seed, num=num, views_per_instance=1, background=True)
+    aug = AugmentConfig(probability=1.0)
+    out = []
+    for i in range(num):
+        s = make_sample(cfg, i)
+        if i % 2 == 1:
+            rng = np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(zlib.crc32(category.encode()), i)))
+            pts, labels, _ = augment_sample(s, rng, aug)
+            s = dict(s, points=pts, part_labels=labels, normals=None)
+        out.append(s)
+    return out
+
+
+def measure(est: Estimator, views: list[dict]) -> tuple[np.ndarray, float]:
+    """Per view, whether every part is right; and the mean time per view (ms)."""
+    ok, ms = [], 0.0
+    for s in views:
+        r = est.predict(s["points"], s.get("normals"))
+        ok.append(view_success(sample_errors(r, s)["parts"]))
+        ms += r.timings_ms["total"]
+    return np.array(ok, dtype=bool), ms / len(views)
+
+
+SIMPLER = ("drop ", " off", "one size", "no restarts")
+"""Labels of the changes that make a pipeline simpler or cheaper: taken when they lose nothing. The others (three
+sizes, another pick) are taken only when they gain."""
+
+
+def candidates(p: Pipeline) -> list[tuple[str, Pipeline]]:
+    """``(label, pipeline)`` of every candidate change of ``p`` (see the module docstring)."""
+    out = []
+    for name in dict.fromkeys(p.stages):
+        if name not in ALWAYS:
+            out.append((f"drop {name}", p.changed(drop=[name])))
+    for stage, subs in (("fit_boxes", ("grow", "fit", "anchor")), ("clean_cloud", ("plane",))):
+        if stage in p.stages:
+            for sub in subs:
+                if p.params.get(f"{stage}.{sub}", True):
+                    out.append((f"{stage}.{sub} off", p.changed(overrides={f"{stage}.{sub}": False})))
+    if p.calibration is not None:
+        s = p.search
+        if len(s.scale_factors) > 1:
+            out.append(("one size", p.changed(overrides={"search.scale_factors": [1.0]})))
+        else:
+            out.append(("three sizes", p.changed(overrides={"search.scale_factors": [0.8, 1.0, 1.25]})))
+        if s.restarts:
+            out.append(("no restarts", p.changed(overrides={"search.restarts": 0})))
+        out.append(
+            (
+                f"pick {'all' if s.pick == 'seen' else 'seen'}",
+                p.changed(overrides={"search.pick": "all" if s.pick == "seen" else "seen"}),
+            )
+        )
+    return out
+
+
+def combine(p: Pipeline, labels: list[str], cands: dict[str, Pipeline]) -> Pipeline:
+    """``p`` with every change in ``labels`` applied."""
+    out = p
+    for label in labels:
+        c = cands[label]
+        dropped = [n for n in out.stages if n not in c.stages]
+        overrides = {k: v for k, v in c.params.items() if p.params.get(k, object()) != v}
+        search = {
+            f.name: getattr(c.search, f.name)
+            for f in dataclasses.fields(c.search)
+            if getattr(c.search, f.name) != getattr(p.search, f.name)
+        }
+        out = out.changed(drop=dropped, overrides={**overrides, **{f"search.{k}": v for k, v in search.items()}})
+    return out
+
+
+def choose(model: str, num: int, seed: int) -> tuple[Pipeline, dict]:
+    net, meta = load_model(find_model(model))
+    base = Pipeline.from_info(meta.get("info"), net.cfg.priors, net.cfg.head)
+    t0 = time.perf_counter()
+    views = val_views(net.cfg.category, num, seed)
+    print(f"{model}: {num} val views in {time.perf_counter() - t0:.0f} s", flush=True)
+    record: dict = {"P": {}}
+    ok_p, ms_p = measure(Estimator(net, base), views)
+    record["P"] = {
+        "stages": list(base.stages),
+        "success": int(ok_p.sum()),
+        "ms": round(ms_p, 1),
+        "views": ok_p.astype(int).tolist(),
+    }
+    print(f"  P: {ok_p.sum()}/{num} ({ms_p:.0f} ms)", flush=True)
+    cands = dict(candidates(base))
+    taken, gained = [], []
+    for label, pipe in cands.items():
+        ok, ms = measure(Estimator(net, pipe), views)
+        delta = int(ok.sum()) - int(ok_p.sum())
+        record[label] = {"success": int(ok.sum()), "delta": delta, "ms": round(ms, 1), "views": ok.astype(int).tolist()}
+        print(f"  {label}: {ok.sum()}/{num} ({delta:+d}, {ms:.0f} ms)", flush=True)
+        if delta > 0 or (delta == 0 and any(k in label for k in SIMPLER)):
+            taken.append(label)
+        if delta > 0:
+            gained.append(label)
+    chosen = combine(base, taken, cands) if taken else base
+    if taken:
+        ok_c, ms_c = measure(Estimator(net, chosen), views)
+        record["combined"] = {
+            "changes": taken,
+            "success": int(ok_c.sum()),
+            "ms": round(ms_c, 1),
+            "views": ok_c.astype(int).tolist(),
+        }
+        print(f"  combined {taken}: {ok_c.sum()}/{num} ({ms_c:.0f} ms)", flush=True)
+        if ok_c.sum() < ok_p.sum():
+            chosen = combine(base, gained, cands) if gained else base
+            record["fallback"] = {"changes": gained}
+            print(f"  fell back to the changes that gained: {gained}", flush=True)
+    chosen = dataclasses.replace(
+        chosen,
+        chosen_on=f"val split, seed {seed}, {num} views of {num} objects, every second corrupted "
+        f"(scripts/choose_pipeline.py); changes from the converted switch defaults: "
+        f"{', '.join(taken if 'fallback' not in record else gained) or 'none'}",
+    )
+    record["chosen"] = chosen.to_dict()
+    return chosen, record
+
+
+def write_card(path: Path, pipeline: Pipeline) -> None:
+    doc = json.loads(path.read_text())
+    doc.setdefault("info", {})["pipeline"] = pipeline.to_dict()
+    atomic_write_json(path, doc)
+
+
+def main() -> int:
+    import torch
+
+    torch.set_num_threads(1)  # one process per core when several models are chosen at once
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", required=True, help="a shipped model name or a run folder / model .json")
+    ap.add_argument("--num", type=int, default=120, help="validation views (default 120)")
+    ap.add_argument("--seed", type=int, default=VAL_SEED)
+    ap.add_argument("--report", default=None, help="report JSON (default docs/reports/MODEL_val_pipeline.json)")
+    ap.add_argument("--no-write", action="store_true", help="measure and report only; leave the model card alone")
+    args = ap.parse_args()
+    chosen, record = choose(args.model, args.num, args.seed)
+    path = find_model(args.model)
+    name = Path(args.model).stem if not Path(args.model).is_dir() else Path(args.model).name
+    report = Path(args.report or ROOT / "docs" / "reports" / f"{name}_val_pipeline.json")
+    report.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(
+        report, {"format": "ucope-pipeline-choice/1", "model": args.model, "num": args.num, "seed": args.seed, **record}
+    )
+    if not args.no_write:
+        write_card(path, chosen)
+    print(f"{args.model}: {list(chosen.stages)} search {chosen.search.to_dict()} -> {report}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
