@@ -511,3 +511,32 @@ def test_bop_reads_what_ucope_generate_images_writes(tmp_path):
     frac = np.bincount(s["part_labels"], minlength=2) / len(s["part_labels"])
     frac_gen = np.bincount(s1["part_labels"], minlength=2) / len(s1["part_labels"])
     np.testing.assert_allclose(frac, frac_gen, atol=0.05)
+
+
+def test_segmented_clouds_npz_and_ply(tmp_path):
+    from ucope.data.readers.clouds import read_instance_ids, read_segmented_cloud
+
+    pts = np.random.default_rng(0).normal(size=(50, 3))
+    ids = np.repeat([0, 1, 2, 7, 7], 10)
+    np.savez(tmp_path / "a.npz", points=pts, instance=ids.astype(np.uint16))
+    p, n, i = read_segmented_cloud(tmp_path / "a.npz")
+    np.testing.assert_array_equal(i, ids)
+    np.testing.assert_allclose(p, pts)
+    assert n is None
+    plyfile = pytest.importorskip("plyfile")
+    v = np.zeros(50, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("instance", "f4")])
+    v["x"], v["y"], v["z"], v["instance"] = pts[:, 0], pts[:, 1], pts[:, 2], ids
+    plyfile.PlyData([plyfile.PlyElement.describe(v, "vertex")]).write(str(tmp_path / "a.ply"))
+    np.testing.assert_array_equal(read_segmented_cloud(tmp_path / "a.ply")[2], ids)
+    np.savez(tmp_path / "none.npz", points=pts)
+    assert read_instance_ids(tmp_path / "none.npz") is None and read_instance_ids(tmp_path / "a.xyz") is None
+    with pytest.raises(DataError, match=r"none\.npz: holds no per-point instance ids \(looked for an \.npz array named instance"):
+        read_segmented_cloud(tmp_path / "none.npz")
+    for bad, message in (
+        (ids[:10], r"'instance' has shape \(10,\), the points \(50,\)"),
+        (ids - 3, "non-negative instance ids"),
+        (ids + 0.5, "whole numbers"),
+    ):
+        np.savez(tmp_path / "b.npz", points=pts, instance=bad)
+        with pytest.raises(DataError, match=message):
+            read_segmented_cloud(tmp_path / "b.npz")

@@ -125,7 +125,10 @@ def _two_part(score_lid: float, warnings=()) -> PoseResult:
     base, lid = np.eye(4), np.eye(4)
     base[:3, 3] = [0.0, 0.05, 0.6]
     lid[:3, 3] = [0.0, -0.03, 0.65]
-    parts = [PartEstimate(0, "base", base, np.array([0.2, 0.02, 0.15]), 0.9), PartEstimate(1, "lid", lid, np.array([0.2, 0.15, 0.02]), score_lid)]
+    parts = [
+        PartEstimate(0, "base", base, np.array([0.2, 0.02, 0.15]), 0.9),
+        PartEstimate(1, "lid", lid, np.array([0.2, 0.15, 0.02]), score_lid),
+    ]
     # a joint axis far longer than the image is wide: its head falls outside the picture
     joint = JointEstimate("revolute", 0, 1, np.array([0.0, 0.04, 0.66]), np.array([1.0, 0.0, 0.0]), 1.2)
     return PoseResult("laptop", parts, [joint], np.zeros(0, np.int64), warnings=list(warnings))

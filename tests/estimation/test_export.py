@@ -77,7 +77,11 @@ def test_several_objects_get_their_own_obj_ids_and_a_map(rng, tmp_path):
     path = write_bop_csv(tmp_path / "res.csv", rows)
     doc = json.loads(obj_id_map_path(path).read_text())
     assert obj_id_map_path(path).name == "res.obj_ids.json" and doc["csv"] == "res.csv"
-    assert [(e["obj_id"], e["object"], e["part"]) for e in doc["obj_ids"]] == [(1, "1: laptop", "p0"), (2, "1: laptop", "p1"), (3, "2: mug", "p0")]
+    assert [(e["obj_id"], e["object"], e["part"]) for e in doc["obj_ids"]] == [
+        (1, "1: laptop", "p0"),
+        (2, "1: laptop", "p1"),
+        (3, "2: mug", "p0"),
+    ]
     # the old rule (part k = the object's own base + k) made the laptop's lid and the mug share obj_id 2: refused
     clash = frame_bop_rows([(laptop, 1, "1: laptop"), (mug, 2, "2: mug")], scene_id=0, im_id=42)
     with pytest.raises(InputError, match=r"obj_id 2 would stand for both 1: laptop 'p1' and 2: mug 'p0'"):
@@ -192,7 +196,10 @@ def _articulated(kind: str) -> PoseResult:
         child[:3, 3] += state * axis
     return PoseResult(
         "laptop" if kind == "revolute" else "thing",
-        [PartEstimate(0, "base", base, np.array([0.3, 0.02, 0.2]), 0.9), PartEstimate(1, "lid", child, np.array([0.3, 0.2, 0.01]), 0.8)],
+        [
+            PartEstimate(0, "base", base, np.array([0.3, 0.02, 0.2]), 0.9),
+            PartEstimate(1, "lid", child, np.array([0.3, 0.2, 0.01]), 0.8),
+        ],
         [JointEstimate(kind, 0, 1, pivot, axis, state, 0.9)],
         np.zeros(3, np.int64),
     )

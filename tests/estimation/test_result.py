@@ -78,7 +78,10 @@ def _mutations() -> dict:
     skew[0, 1] = 0.3
     return {
         "last row": (setp(["parts", 0, "cam_from_part", 3], [0, 0, 1, 1]), r"parts\[0\]\.cam_from_part: the last row must be"),
-        "non-orthonormal": (setp(["parts", 1, "cam_from_part"], skew.tolist()), r"parts\[1\]\.cam_from_part: the rotation is not"),
+        "non-orthonormal": (
+            setp(["parts", 1, "cam_from_part"], skew.tolist()),
+            r"parts\[1\]\.cam_from_part: the rotation is not",
+        ),
         "label >= K": (setp(["part_labels", 1], 2), r"part_labels: must lie in \[-1, 1\] \(K = 2\)"),
         "num_points": (setp(["num_points"], 7), r"num_points: is 7 but part_labels holds 4"),
         "child 9": (setp(["joints", 0, "child"], 9), r"joints\[0\]\.child: must lie in \[0, 1\], got 9"),

@@ -115,7 +115,13 @@ def test_html_has_a_legend_and_instance_labels_and_the_view_frames_the_object(tm
     scene = Scene([DrawnObject(r, pts, name="2: laptop")], title="frame 7")
     text = write_html([scene], tmp_path / "view.html").read_text()
     legend = text[text.index('<div id="ucope-legend"') :]
-    for item in ("2: laptop: base  score 0.90", "2: laptop: lid  score 0.30 (low)", "few points on the lid", "frame 7", "#ff8c00"):
+    for item in (
+        "2: laptop: base  score 0.90",
+        "2: laptop: lid  score 0.30 (low)",
+        "few points on the lid",
+        "frame 7",
+        "#ff8c00",
+    ):
         assert item in legend, item
     server = _server("127.0.0.1", 0, quiet=True)
     try:
