@@ -251,7 +251,7 @@ def test_rerun_recording_or_a_clear_message(tmp_path, monkeypatch):
 
     r = _articulated("revolute")
     if importlib.util.find_spec("rerun") is None:
-        with pytest.raises(InputError, match=r'pip install "ucope\[rerun\]"'):
+        with pytest.raises(InputError, match="pip install rerun-sdk"):
             r.to_rrd(tmp_path / "r.rrd")
         return
     from rerun.chunk import RrdReader
@@ -261,5 +261,5 @@ def test_rerun_recording_or_a_clear_message(tmp_path, monkeypatch):
     entities = {c.entity_path for c in RrdReader(path).stream()}
     assert {"/camera/object_0/boxes", "/camera/object_0/joints", "/camera/object_0/points"} <= entities
     monkeypatch.setitem(sys.modules, "rerun", None)
-    with pytest.raises(InputError, match=r'pip install "ucope\[rerun\]"'):
+    with pytest.raises(InputError, match="pip install rerun-sdk"):
         r.to_rrd(tmp_path / "x.rrd")

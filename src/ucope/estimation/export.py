@@ -8,7 +8,7 @@ of the estimated object, its geometry (GLB / PLY) and a rerun recording (``.rrd`
 * :func:`write_urdf`: the object as a URDF (parts as boxes, joints with the estimated axis, pivot and
   limits) for a planner or a simulator;
 * :func:`write_geometry`: boxes, joint axes and points as a GLB (or PLY) file, through trimesh;
-* :func:`write_rrd`: a rerun recording, with ``pip install "ucope[rerun]"``.
+* :func:`write_rrd`: a rerun recording, with ``pip install rerun-sdk``.
 
 BOP results CSV: one row per estimated part::
 
@@ -557,12 +557,12 @@ def write_rrd(
     """Write the estimates as a rerun recording (``.rrd``; open it with ``rerun FILE.rrd``): under the
     entity ``camera`` (view coordinates right-down-forward, the camera frame), per object ``camera/<name>``
     its boxes (``Boxes3D``, labelled with part and score), joint axes (``Arrows3D``) and cloud
-    (``Points3D`` coloured by part). Needs rerun-sdk: ``pip install "ucope[rerun]"`` (about 700 MB with
+    (``Points3D`` coloured by part). Needs rerun-sdk: ``pip install rerun-sdk`` (about 700 MB with
     its dependencies); :class:`InputError` naming the extra otherwise."""
     try:
         import rerun as rr
     except ImportError:
-        raise InputError('writing .rrd recordings needs rerun-sdk: pip install "ucope[rerun]"') from None
+        raise InputError("writing .rrd recordings needs rerun-sdk: pip install rerun-sdk") from None
     import tempfile
 
     path = Path(path)

@@ -524,7 +524,7 @@ class PoseResult:
         return write_geometry([self], path, [points])
 
     def to_rrd(self, path: str | os.PathLike, points=None) -> Path:
-        """Write a rerun recording (``.rrd``; needs ``pip install "ucope[rerun]"``;
+        """Write a rerun recording (``.rrd``; needs ``pip install rerun-sdk``;
         :func:`ucope.estimation.export.write_rrd`)."""
         from .export import write_rrd
 
