@@ -69,7 +69,9 @@ def predict_views(model: str, views, **load_kw):
 def record(model: str, views, path: Path) -> Path:
     """Run the shipped ``model`` on ``views`` and write its golden file ``path``."""
     arrays = flatten(predict_views(model, views))
-    np.savez_compressed(path, split=np.array([v[0] for v in views]), index=np.array([v[1] for v in views], np.int64), **arrays)
+    np.savez_compressed(
+        path, split=np.array([v[0] for v in views]), index=np.array([v[1] for v in views], np.int64), **arrays
+    )
     return path
 
 
