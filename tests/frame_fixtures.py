@@ -118,71 +118,114 @@ def write_nocs_frame(prefix: Path, frame: dict, classes: list[int], three_channe
     prefix.with_name(prefix.name + "_meta.txt").write_text("\n".join(lines) + "\n")
 
 
-def write_artimage(root: Path, frames: list[dict], scale: float = 1.0, polygons: bool = False) -> None:
-    """Write one-object frames in the ArtImage layout of :mod:`ucope.data.readers.artimage` (state 0 = the
-    links' rest frame; ``transformation`` with a uniform ``scale``)."""
+def coco_rle(mask: np.ndarray, compressed: bool = True) -> dict:
+    """COCO's RLE of a bool mask (column-major runs starting with background), its counts as COCO's
+    compressed string (``rleToString``) or as a list (written here from COCO's definition, for fixtures)."""
+    flat = np.asarray(mask, bool).T.reshape(-1)
+    change = np.flatnonzero(np.diff(flat.astype(np.int8))) + 1
+    bounds = np.r_[0, change, flat.size]
+    counts = np.diff(bounds).tolist()
+    if flat.size and flat[0]:
+        counts = [0] + counts
+    size = [int(mask.shape[0]), int(mask.shape[1])]
+    if not compressed:
+        return {"size": size, "counts": counts}
+    out = []
+    for i, c in enumerate(counts):
+        x = c - counts[i - 2] if i > 2 else c
+        more = True
+        while more:
+            ch = x & 0x1F
+            x >>= 5
+            more = x != -1 if ch & 0x10 else x != 0
+            if more:
+                ch |= 0x20
+            out.append(chr(ch + 48))
+    return {"size": size, "counts": "".join(out)}
+
+
+def urdf_order(v) -> list:
+    """A rest-frame vector ``(x, y, z)`` in the URDF axis order ReArt's files store (``[z, x, y]``: their
+    loader reads a stored ``[a, b, c]`` as ``(b, c, a)``)."""
+    v = np.asarray(v, np.float64)
+    return [float(v[2]), float(v[0]), float(v[1])]
+
+
+def write_artimage(root: Path, frames: list[dict], scale: float = 1.0, segmentation: str = "rle", link_base: int = 1) -> None:
+    """Write frames in the ReArt / ArtImage annotation layout, with the field names of the authors'
+    loaders: every object of a frame is an instance with its own urdf (``urdf_metas.json``: ``corner_pts``
+    ``(K + 1, 2, 1, 3)`` with the whole object first, ``joint_xyz`` / ``joint_rpy`` in URDF axis order,
+    link ids from ``link_base``), its links listed in reverse id order with ``link_category_id``,
+    ``transformation`` (the object's rest frame -> camera, a uniform ``scale``) and ``segmentation``
+    (``"rle"``: COCO compressed RLE; ``"rle-list"``: uncompressed; ``"polygons"``: the bounding quad of each
+    part's pixels, coarse), and no link ``state`` (the reader measures it from the poses)."""
     cam = frames[0]["camera"]
     save_json(
         root / "camera_intrinsic.json",
         {"width": cam.width, "height": cam.height, "intrinsic_matrix": [cam.fx, 0, 0, 0, cam.fy, 0, cam.cx, cam.cy, 1]},
     )
     metas = []
-    for u, fr in enumerate(frames):
-        o = fr["objects"][0]
-        obj = o["obj"]
-        zero = np.stack([np.eye(4)] * obj.num_parts)  # link frames: the object frame at state 0 (may be outside the limits)
-        for j in obj.joints:
-            zero[j.child] = zero[j.parent] @ j.parent_from_child_zero
-        corners = [
-            [((zero[k, :3, 3] - obj.size_m[k] / 2) / scale).tolist(), ((zero[k, :3, 3] + obj.size_m[k] / 2) / scale).tolist()]
-            for k in range(obj.num_parts)
-        ]
-        metas.append(
-            {
-                "id": u,
-                "corner_pts": corners,
-                "joint_types": [j.type for j in obj.joints],
-                "joint_parents": [j.parent for j in obj.joints],
-                "joint_children": [j.child for j in obj.joints],
-                "joint_xyz": [((zero[j.parent, :3, :3] @ j.pivot + zero[j.parent, :3, 3]) / scale).tolist() for j in obj.joints],
-                "joint_axis": [(zero[j.parent, :3, :3] @ j.axis).tolist() for j in obj.joints],
-            }
-        )
-        links = []
-        for k in range(obj.num_parts):
-            M = o["cam_from_part"][k] @ invert_transform(zero[k])  # camera <- link (metres)
-            M[:3, :3] *= scale  # the link frame in model units
-            link = {"id": k, "transformation": M.tolist()}
-            if k:
-                q = float(o["joint_state"][k - 1])
-                link["state"] = float(np.degrees(q)) if obj.joints[k - 1].type == "revolute" else q / scale
-            if polygons:  # the bounding quad of the part's pixels (a coarse segmentation)
-                rows, cols = np.nonzero(fr["parts"] == k)
-                link["segmentation"] = [
-                    [
-                        int(cols.min()),
-                        int(rows.min()),
-                        int(cols.max()),
-                        int(rows.min()),
-                        int(cols.max()),
-                        int(rows.max()),
-                        int(cols.min()),
-                        int(rows.max()),
-                    ]
-                ]
-            links.append(link)
-        name = f"scene_0/{u:06d}"
+    for f, fr in enumerate(frames):
+        instances = []
+        for i, o in enumerate(fr["objects"]):
+            obj = o["obj"]
+            u = 100 + len(metas)
+            K = obj.num_parts
+            zero = np.stack([np.eye(4)] * K)  # link frames: the object frame at state 0 (may be outside the limits)
+            for j in obj.joints:
+                zero[j.child] = zero[j.parent] @ j.parent_from_child_zero
+            lo = (zero[:, :3, 3] - obj.size_m / 2) / scale
+            hi = (zero[:, :3, 3] + obj.size_m / 2) / scale
+            boxes = np.stack([lo, hi], axis=1)  # (K, 2, 3)
+            whole = np.stack([lo.min(axis=0), hi.max(axis=0)])
+            corners = np.concatenate([whole[None], boxes])[:, :, None, :]  # (K + 1, 2, 1, 3)
+            metas.append(
+                {
+                    "id": u,
+                    "norm_factors": [float(1.0 / np.linalg.norm(c[1, 0] - c[0, 0])) for c in corners],
+                    "corner_pts": corners.tolist(),
+                    "joint_types": [j.type for j in obj.joints],
+                    "joint_parents": [j.parent + link_base for j in obj.joints],
+                    "joint_children": [j.child + link_base for j in obj.joints],
+                    "joint_xyz": [
+                        urdf_order((zero[j.parent, :3, :3] @ j.pivot + zero[j.parent, :3, 3]) / scale) for j in obj.joints
+                    ],
+                    "joint_rpy": [urdf_order(zero[j.parent, :3, :3] @ j.axis) for j in obj.joints],
+                }
+            )
+            links = []
+            for k in reversed(range(K)):
+                M = o["cam_from_part"][k] @ invert_transform(zero[k])  # camera <- link (metres)
+                M[:3, :3] *= scale  # the link frame in model units
+                link = {"link_category_id": k + link_base, "transformation": M.tolist()}
+                sel = (fr["instance"] == i + 1) & (fr["parts"] == k)
+                if segmentation == "polygons":
+                    rows, cols = np.nonzero(sel)
+                    x0, x1, y0, y1 = int(cols.min()), int(cols.max()), int(rows.min()), int(rows.max())
+                    link["segmentation"] = [[x0, y0, x1, y0, x1, y1, x0, y1]]
+                else:
+                    link["segmentation"] = coco_rle(sel, compressed=segmentation == "rle")
+                links.append(link)
+            rows, cols = np.nonzero(fr["instance"] == i + 1)
+            instances.append(
+                {
+                    "id": i,
+                    "urdf_id": u,
+                    "category_id": 1,
+                    "bbox": [int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1],
+                    "links": links,
+                }
+            )
+        name = f"scene_0/{f:06d}"
         save_png(root / "depth" / f"{name}.png", fr["depth_mm"])
-        part_mask = np.where(fr["parts"] >= 0, fr["parts"], 255).astype(np.uint8)
-        save_png(root / "mask" / f"{name}.png", part_mask)
         save_json(
             root / "annotations" / f"{name}.json",
             {
+                "color_path": f"{name}.jpg",
                 "depth_path": f"{name}.png",
-                "mask_path": f"{name}.png",
                 "width": cam.width,
                 "height": cam.height,
-                "instances": [{"id": 0, "urdf_id": u, "links": links}],
+                "instances": instances,
             },
         )
     save_json(root / "urdf_metas.json", {"urdf_metas": metas})

@@ -7,7 +7,7 @@ Layers, each importing only from the ones before it (docs/architecture.md)::
 
 ``ucope.Estimator``, ``ucope.PoseResult`` and the sub-packages (``ucope.data``, ``ucope.eval``...) are
 imported on first use, so ``import ucope`` stays light and ``ucope.data.load_dataset`` works after a
-plain ``import ucope``.
+plain ``import ucope``; ``dir(ucope)`` lists them all (tab completion sees them).
 """
 
 from __future__ import annotations
@@ -50,3 +50,9 @@ def __getattr__(name: str):
 
         return PoseResult
     raise AttributeError(f"module 'ucope' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """What tab completion offers: the loaded names, ``Estimator``, ``PoseResult`` and the sub-packages
+    (all imported on first use)."""
+    return sorted(set(globals()) | set(__all__) | set(_SUBMODULES))

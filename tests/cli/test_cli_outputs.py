@@ -71,15 +71,73 @@ def test_predict_several_objects_in_one_frame(frame_files, tmp_path, capsys):
     jsonschema.validate(doc, result_schema())
     assert [o["model"] for o in doc["objects"]] == ["mug", "laptop"] and doc["source"]["rgb"].endswith("rgb.png")
     rows = read_bop_csv(tmp_path / "frame.csv")
-    # obj_id: the instance id for part 0, + k for part k; one time (the sum) for the image, im_id from the file name
+    # obj_ids numbered on over the objects (the mug 1, the laptop's base 2 and lid 3): every (object, part) its own;
+    # one time (the sum) for the image, im_id from the file name
     assert [(r.scene_id, r.im_id, r.obj_id) for r in rows] == [(3, 42, 1), (3, 42, 2), (3, 42, 3)]
     assert len({r.time_s for r in rows}) == 1 and rows[0].time_s > 0
-    # one picture of the frame: the mug's part in blue, then the laptop's base and lid in the next colours
+    ids = json.loads((tmp_path / "frame.obj_ids.json").read_text())["obj_ids"]
+    assert [(e["obj_id"], e["object"], e["part"]) for e in ids] == [
+        (1, "1: mug", "body"),
+        (2, "2: laptop", "base"),
+        (3, "2: laptop", "lid"),
+    ]
+    # one picture of the frame: the mug's part in orange, then the laptop's base and lid in the next colours
     from PIL import Image
 
     img = np.array(Image.open(tmp_path / "frame.png").convert("RGB")).astype(int)
-    for colour in ((31, 119, 180), (255, 127, 14), (44, 160, 44)):
+    for colour in ((255, 140, 0), (148, 103, 189), (227, 119, 194)):
         assert int((np.abs(img - np.array(colour)).max(axis=-1) < 30).sum()) > 200, colour
+
+
+def _segmented_cloud(frame) -> tuple[np.ndarray, np.ndarray]:
+    """The frame's measured pixels as a cloud (metres) and their instance ids (0: background)."""
+    from frame_fixtures import backproject
+
+    ok = frame["depth_mm"] > 0
+    return backproject(frame["depth_mm"], SMALL)[ok], frame["instance"][ok].astype(np.int32)
+
+
+def test_predict_a_segmented_cloud_with_instance_ids(frame_files, tmp_path, capsys):
+    _, frame = frame_files
+    pts, ids = _segmented_cloud(frame)
+    fmt = "npz"  # the PLY property is read by the same reader: tests/data/test_readers.py
+    np.savez(tmp_path / "seg.npz", points=pts, instance=ids)
+    argv = ["predict", "--input", str(tmp_path / f"seg.{fmt}"), "--instances", "1=mug", "2=laptop"]
+    argv += ["--out", str(tmp_path / "f.json"), "--bop-csv", str(tmp_path / "f.csv"), "--pairs", "3000"]
+    assert main(argv) == 0, capsys.readouterr().err
+    doc = json.loads((tmp_path / "f.json").read_text())
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.validate(doc, result_schema())
+    objs = doc["objects"]
+    assert [(o["instance_id"], o["model"], o["num_points"]) for o in objs] == [
+        (1, "mug", int((ids == 1).sum())),
+        (2, "laptop", int((ids == 2).sum())),
+    ]
+    for o, truth in zip(objs, frame["objects"], strict=True):  # each object found where it is
+        t = np.asarray(o["result"]["parts"][0]["cam_from_part"])[:3, 3]
+        assert np.linalg.norm(t - truth["cam_from_part"][0][:3, 3]) < 0.05
+    assert doc["source"]["input"].endswith(f"seg.{fmt}") and len(read_bop_csv(tmp_path / "f.csv")) == 3
+    # without --instances the cloud is one object, and the command says so
+    one = ["predict", "--model", "mug", "--input", str(tmp_path / "seg.npz"), "--out", str(tmp_path / "one.json")]
+    assert main([*one, "--pairs", "500", "--no-scale-search", "--no-recrop"]) == 0
+    assert "carries per-point instance ids [1, 2]: estimated as one object" in capsys.readouterr().err
+
+
+def test_instances_honour_box_and_refuse_mask_label(frame_files, tmp_path, capsys):
+    d, frame = frame_files
+    cols = np.nonzero(frame["instance"] == 1)[1]
+    box = [0, 0, int(cols.max()) + 1, 240]  # the mug's side of the image only
+    argv = ["predict", "--instances", "1=mug", "2=laptop", "--depth", str(d / "000042.png"), "--mask", str(d / "instances.png")]
+    argv += ["--intrinsics", str(d / "K.json"), "--out", str(tmp_path / "b.json"), "--pairs", "2000"]
+    assert main([*argv, "--box", *map(str, box)]) == 0, capsys.readouterr().err
+    objs = json.loads((tmp_path / "b.json").read_text())["objects"]
+    laptop_inside = int(((frame["instance"] == 2) & (frame["depth_mm"] > 0))[:, : box[2]].sum())
+    assert objs[0]["result"] is not None and objs[0]["num_pixels"] == int(
+        ((frame["instance"] == 1) & (frame["depth_mm"] > 0)).sum()
+    )
+    assert objs[1]["num_pixels"] == laptop_inside < int((frame["instance"] == 2).sum())  # cut to the box
+    assert main([*argv, "--mask-label", "1"]) == 2
+    assert "--mask-label picks one object's values" in capsys.readouterr().err
 
 
 def test_predict_data_samples_with_pictures_viewer_and_csv(tmp_path, capsys):
@@ -245,6 +303,18 @@ def test_eval_reads_nocs_artimage_and_bop(tmp_path, capsys):
             "not a readable image",
         ),
         (["eval", "--model", "mug", "--format", "nocs", "{t}", "--out", "{t}/r.json"], "holds no NOCS frames"),
+        (
+            ["eval", "--model", "mug", "--format", "bop", "{t}", "--intrinsics", "{d}/K.json", "--out", "{t}/r.json"],
+            "--intrinsics is an option of --format nocs and artimage",
+        ),
+        (
+            ["eval", "--model", "mug", "--format", "bop", "{t}", "--dataset", "real", "--out", "{t}/r.json"],
+            "--dataset is an option",
+        ),
+        (
+            ["predict", "--instances", "1=mug", "--input", "{d}/x.npz", "--depth", "{d}/000042.png", "--out", "{t}/x.json"],
+            "--depth",
+        ),
         (["eval", "--model", "mug", "--out", "{t}/r.json"], "give the data set"),
         (["show", "{t}"], "does not exist"),
     ],

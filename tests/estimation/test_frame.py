@@ -55,3 +55,24 @@ def test_bad_frames_and_instance_lists():
         parse_instance_models(["1=mug", "1=bowl"])
     with pytest.raises(DataError, match="not a ucope frame result"):
         FrameResult.from_dict({"format": "ucope-result/1"})
+
+
+def test_segmented_cloud_inputs_are_checked_before_any_model_loads():
+    from ucope.estimation.frame import predict_cloud
+
+    pts = np.random.default_rng(0).normal([0, 0, 1], 0.05, (20, 3))
+    ids = np.repeat([1, 2], 10)
+    with pytest.raises(InputError, match=r"\[3\] do not occur in the cloud's instance ids \(it holds \[1, 2\]\)"):
+        predict_cloud(pts, ids, {3: "mug"})
+    with pytest.raises(InputError, match=r"instance_ids must be \(20,\) integers"):
+        predict_cloud(pts, ids[:5], {1: "mug"})
+    with pytest.raises(InputError, match="units must be one of"):
+        predict_cloud(pts, ids, {1: "mug"}, units="inch")
+
+
+def test_frame_objects_of_a_cloud_carry_their_point_counts():
+    from ucope.estimation.frame import FrameObject
+
+    d = FrameResult([FrameObject(2, "mug", None, error="too few", num_points=12)], {"input": "seg.npz"}).to_dict()
+    assert d["objects"][0]["num_points"] == 12 and "num_pixels" not in d["objects"][0]
+    assert FrameResult.from_dict(d).objects[0].num_points == 12

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from frame_fixtures import needs_models
 
-from ucope.estimation.result import SCHEMA_FILE, JointEstimate, PartEstimate, PoseResult, result_schema
+from ucope.errors import DataError
+from ucope.estimation.result import SCHEMA_FILE, JointEstimate, PartEstimate, PoseResult, result_schema, validate
 
 jsonschema = pytest.importorskip("jsonschema")
 
@@ -71,8 +72,16 @@ def test_broken_results_are_rejected(validator, laptop_sample_result):
         "extra field": lambda d: d.update(colour="red"),
         "label < -1": lambda d: d["part_labels"].__setitem__(0, -2),
         "symmetry": lambda d: d["parts"][0].update(symmetry="z"),
+        "last row": lambda d: d["parts"][0]["cam_from_part"].__setitem__(3, [0, 0, 1, 1]),
+        "rotation entry > 1": lambda d: d["parts"][0]["cam_from_part"][0].__setitem__(0, 1.5),
+        "revolute without pivot": lambda d: d["joints"][0].update(pivot_m=None),
+        "junk in errors": lambda d: d.update(errors={"parts": [None, None], "joints": [None], "junk": 1}),
+        "junk in part errors": lambda d: d.update(errors={"parts": [{"iou": 0.5, "colour": 1}, None], "joints": [None]}),
+        "no parts": lambda d: d.update(parts=[]),
     }
     for name, mutate in cases.items():
         d = copy.deepcopy(good)
         mutate(d)
         assert _errors(validator, d), name
+        with pytest.raises(DataError):  # the package's own validator refuses what the schema refuses
+            validate(d)

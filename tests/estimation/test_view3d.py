@@ -56,6 +56,7 @@ def test_scene_holds_clouds_boxes_triads_and_joints():
         "/scene_0/object_0/part_1",
         "/scene_0/object_0/joint_0",
         "/scene_0/object_0/label_0",
+        "/scene_0/object_0/box_1",
         "/scene_1/object_0/boxes",
     ):
         assert n in names
@@ -76,17 +77,17 @@ def test_html_view_renders_in_a_headless_browser(tmp_path):
     r, pts = _laptop_like()
     html = write_html([Scene([DrawnObject(r, pts)], title="laptop")], tmp_path / "view.html")
     assert html.stat().st_size > 100_000 and b"__VISER_EMBED_DATA__" in html.read_bytes()
-    blue, orange = (31, 119, 180), (255, 127, 14)  # the base's and the lid's colours
+    orange, purple = (255, 140, 0), (148, 103, 189)  # the base's and the lid's colours
 
     def drawn(img):
-        return _colour_pixels(img, blue) > 300 and _colour_pixels(img, orange) > 300
+        return _colour_pixels(img, orange) > 300 and _colour_pixels(img, purple) > 300
 
     img = screenshot(html.as_uri(), drawn)
     from PIL import Image
 
     Image.fromarray(img).save(tmp_path / "shot.png")
     # the points and boxes of both parts are drawn in their colours
-    assert drawn(img), (_colour_pixels(img, blue), _colour_pixels(img, orange))
+    assert drawn(img), (_colour_pixels(img, orange), _colour_pixels(img, purple))
 
 
 def test_live_viewer_serves_the_page():
@@ -102,3 +103,38 @@ def test_live_viewer_serves_the_page():
             assert page.status == 200 and b"<html" in page.read(2000).lower()
     finally:
         server.stop()
+
+
+def test_html_has_a_legend_and_instance_labels_and_the_view_frames_the_object(tmp_path):
+    pytest.importorskip("viser")
+    from ucope.estimation.view3d import VIEW_FILL, VIEW_FOV_DEG, _opening_view, _server, build_scene, write_html
+
+    r, pts = _laptop_like()
+    r.parts[1].score = 0.3
+    r.warnings = ["few points on the lid"]
+    scene = Scene([DrawnObject(r, pts, name="2: laptop")], title="frame 7")
+    text = write_html([scene], tmp_path / "view.html").read_text()
+    legend = text[text.index('<div id="ucope-legend"') :]
+    for item in (
+        "2: laptop: base  score 0.90",
+        "2: laptop: lid  score 0.30 (low)",
+        "few points on the lid",
+        "frame 7",
+        "#ff8c00",
+    ):
+        assert item in legend, item
+    server = _server("127.0.0.1", 0, quiet=True)
+    try:
+        build_scene(server, [scene])
+        eye, look = np.asarray(server.initial_camera.position), np.asarray(server.initial_camera.look_at)
+        labels = {h.text for h in server.scene._handle_from_node_name.values() if hasattr(h, "text") and isinstance(h.text, str)}
+    finally:
+        server.stop()
+    assert "2: laptop: lid 0.30 (low)" in labels
+    # the opening view: along the line of sight, close enough for the object to span most of the view's height
+    from ucope.geometry.boxes import box_corners
+
+    corners = np.concatenate([box_corners(r.cam_from_part, r.size_m).reshape(-1, 3), pts])
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    span = np.linalg.norm(hi - lo) / (2 * np.linalg.norm(eye - look) * np.tan(np.radians(VIEW_FOV_DEG) / 2))
+    assert span == pytest.approx(VIEW_FILL, rel=1e-6) and np.allclose(_opening_view(lo, hi)[1], look)

@@ -357,7 +357,7 @@ def _predict_jobs(args: argparse.Namespace) -> tuple[list, dict | None]:
     """``(jobs, frame)``: ``(name, load)`` per input, ``load() -> (points, normals, sample_or_None, units)``
     (files are read inside their own job, so that one bad file fails alone), and the RGB-D frame to draw
     over (``--depth``) or ``None``."""
-    from ..data.io import read_depth_png, read_intrinsics, read_point_cloud
+    from ..data.io import read_depth_png, read_intrinsics
     from .outputs import read_rgb
 
     if args.depth is not None:
@@ -388,8 +388,28 @@ def _predict_jobs(args: argparse.Namespace) -> tuple[list, dict | None]:
         ]
         return jobs, None
     if args.input is not None:
-        return [(f.stem, lambda f=f: (*read_point_cloud(f), None, args.units)) for f in _expand_inputs(args.input)], None
+        return [(f.stem, lambda f=f: (*_read_cloud(f), None, args.units)) for f in _expand_inputs(args.input)], None
     raise UcopeError("give --input CLOUD (or a folder / glob), --depth D.png --intrinsics K.json, or --data DIR --index I")
+
+
+def _read_cloud(path: Path):
+    """``(points, normals)`` of one ``--input`` file; a note on stderr when its points carry several instance
+    ids (it is then estimated as one object: ``--instances`` estimates each)."""
+    import numpy as np
+
+    from ..data.io import read_point_cloud
+    from ..data.readers.clouds import read_instance_ids
+
+    pts, nrm = read_point_cloud(path)
+    ids = read_instance_ids(path)
+    if ids is not None and len(np.unique(ids)) > 1:
+        shown = np.unique(ids).tolist()
+        print(
+            f"ucope predict: {path.name} carries per-point instance ids {shown[:8]}{'...' if len(shown) > 8 else ''}: "
+            "estimated as one object; --instances ID=MODEL ... estimates each with its model",
+            file=sys.stderr,
+        )
+    return pts, nrm
 
 
 def _result_path(out: str, name: str, many: bool) -> Path:
@@ -430,11 +450,11 @@ def cmd_predict(args: argparse.Namespace) -> int:
         try:
             pts, nrm, s, units = load()
             res = est.predict(pts, None if args.ignore_normals else nrm, units=units, up=args.up)
-            d = res.to_dict()
             if s is not None:
                 from ..eval.evaluate import sample_errors
 
-                d["errors"] = sample_errors(res, s)
+                res.errors = sample_errors(res, s)
+            d = res.to_dict()
             path = _result_path(args.out, name, many)
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)

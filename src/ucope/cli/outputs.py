@@ -30,9 +30,9 @@ class Job:
     """One estimated object for the outputs: its name, result, cloud, ground truth and errors, and the
     BOP image id it belongs to."""
 
-    def __init__(self, name: str, result, points, sample=None, errors=None, im_id: int = 0, obj_id: int | None = None):
+    def __init__(self, name: str, result, points, sample=None, errors=None, im_id: int = 0):
         self.name, self.result, self.points, self.sample, self.errors = name, result, points, sample, errors
-        self.im_id, self.obj_id = int(im_id), obj_id
+        self.im_id = int(im_id)
 
 
 def add_view_options(p: argparse.ArgumentParser) -> None:
@@ -50,7 +50,8 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         nargs="+",
         default=None,
         metavar="ID=MODEL",
-        help="several objects in one frame: --mask is an instance mask, each ID (a mask value) estimated by its MODEL; "
+        help="several objects in one frame: --mask is an instance mask over --depth (or --input a cloud with per-point "
+        "instance ids: an .npz 'instance' array or a PLY 'instance' property), each ID estimated by its MODEL; "
         "--out is one JSON with all of them (ucope-results/1)",
     )
     add_view_options(p)
@@ -58,7 +59,8 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         "--bop-csv",
         default=None,
         metavar="FILE",
-        help="also write the estimates as a BOP results CSV (obj_id of part k = base + k)",
+        help="also write the estimates as a BOP results CSV (obj_id of part k = base + k; the objects of one image "
+        "numbered on; the obj_id of every (object, part) in FILE's .obj_ids.json beside it)",
     )
     p.add_argument("--bop-scene-id", type=int, default=0, help="BOP scene_id of the rows (default 0)")
     p.add_argument(
@@ -72,7 +74,8 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         "--bop-obj-id",
         type=int,
         default=None,
-        help="BOP obj_id of part 0 (default 1; with --instances, the instance id); part k gets this + k",
+        help="BOP obj_id of the first object's part 0 (default 1); part k gets this + k, and the next object of the "
+        "image (--instances, in id order) goes on from there",
     )
 
 
@@ -85,7 +88,32 @@ def add_eval_format_options(p: argparse.ArgumentParser) -> None:
         help="data set format: ucope (ucope generate, default), nocs (CAMERA25 / REAL275 frames), artimage, bop "
         "(docs/formats.md)",
     )
-    p.add_argument("--intrinsics", default=None, help="with --format nocs: intrinsics JSON overriding CAMERA's / REAL275's")
+    p.add_argument(
+        "--intrinsics",
+        default=None,
+        help="with --format nocs: intrinsics JSON overriding CAMERA's / REAL275's; with --format artimage: the Open3D "
+        "camera_intrinsic.json (default DIR/camera_intrinsic.json)",
+    )
+    p.add_argument(
+        "--dataset",
+        choices=["real", "camera"],
+        default=None,
+        help="with --format nocs: REAL275 (real) or CAMERA25 (camera) intrinsics (default: told by the folder names from "
+        "DIR down: real / real_test..., camera / camera_val...)",
+    )
+    p.add_argument(
+        "--nocs-gts",
+        default=None,
+        metavar="DIR",
+        help="with --format nocs: NOCS's gts folder (results_*.pkl): official poses and model boxes instead of the "
+        "coordinate-map fit (default DIR/gts when it exists); read without unpickling anything but arrays",
+    )
+    p.add_argument(
+        "--urdf-metas",
+        default=None,
+        metavar="FILE",
+        help="with --format artimage: the urdf_metas.json (default DIR/urdf_metas.json)",
+    )
     p.add_argument(
         "--bop-obj-id", type=int, default=1, help="with --format bop: the obj_id of part 0 (part k is this + k; default 1)"
     )
@@ -138,14 +166,20 @@ def write_outputs(args: argparse.Namespace, jobs: list[Job], frame: dict | None 
         scenes = _scenes(jobs, frame)
         print(f"wrote {plot_scenes(scenes, args.vis)}")
     if getattr(args, "bop_csv", None):
-        from ..estimation.export import frame_bop_rows, write_bop_csv
+        from ..estimation.export import frame_bop_rows, obj_id_map_path, write_bop_csv
 
+        base = int(args.bop_obj_id) if args.bop_obj_id is not None else 1
+        if base < 1:
+            raise UcopeError(f"--bop-obj-id must be a positive integer, got {base}")
         by_image: dict[int, list] = {}
         for j in jobs:
-            base = j.obj_id if j.obj_id is not None else (args.bop_obj_id if args.bop_obj_id is not None else 1)
-            by_image.setdefault(j.im_id, []).append((j.result, int(base)))
-        rows = [r for im, objs in sorted(by_image.items()) for r in frame_bop_rows(objs, args.bop_scene_id, im)]
-        print(f"wrote {write_bop_csv(args.bop_csv, rows)} ({len(rows)} rows: one per part; obj_id of part k = base + k)")
+            by_image.setdefault(j.im_id, []).append((j.result, base, j.name))
+        rows = [r for im, objs in sorted(by_image.items()) for r in frame_bop_rows(objs, args.bop_scene_id, im, base=base)]
+        path = write_bop_csv(args.bop_csv, rows)
+        print(
+            f"wrote {path} ({len(rows)} rows: one per part; obj_id of part k = base + k, the objects of an image numbered on) "
+            f"and {obj_id_map_path(path).name}"
+        )
     if getattr(args, "view_html", None) or getattr(args, "view", False):
         from ..estimation.view3d import show, write_html
 
@@ -194,30 +228,83 @@ def estimator_options(args: argparse.Namespace) -> dict:
     return dict(stages=stages, drop=drop, overrides=overrides, seed=args.seed, device=args.device)
 
 
+def _instances_checks(args: argparse.Namespace) -> None:
+    """Refuse the options ``--instances`` cannot honour, before any work."""
+    if args.model is not None:
+        raise UcopeError("give either --model (one object) or --instances ID=MODEL ... (several), not both")
+    if getattr(args, "mask_label", None) is not None:
+        raise UcopeError(
+            "--mask-label picks one object's values in its mask; with --instances the mask values are the instance ids "
+            "given as ID=MODEL: leave --mask-label out"
+        )
+    if getattr(args, "data", None) is not None:
+        raise UcopeError("--instances estimates the objects of one frame (--depth/--mask or --input), not --data samples")
+    if args.input is not None:
+        given = [o for o in ("depth", "mask", "intrinsics", "box", "rgb") if getattr(args, o, None) is not None]
+        if given:
+            raise UcopeError(
+                f"--input with --instances takes the instance ids from the cloud; --{', --'.join(given)} belong to a depth "
+                "frame (--depth --mask --intrinsics): give one or the other"
+            )
+    elif args.depth is None or args.mask is None or args.intrinsics is None:
+        raise UcopeError(
+            "--instances needs --depth D.png, --mask INSTANCES.png and --intrinsics K.json, or --input CLOUD with per-point "
+            "instance ids"
+        )
+
+
+def _predict_cloud_instances(args: argparse.Namespace, models: dict, opts: dict):
+    """``(FrameResult, frame picture dict)`` of ``--input CLOUD --instances ...``."""
+    from ..data.readers.clouds import read_segmented_cloud
+    from ..estimation.frame import predict_cloud
+    from .main import _expand_inputs
+
+    files = _expand_inputs(args.input)
+    if len(files) != 1:
+        raise UcopeError(f"--input with --instances takes one segmented cloud, got {len(files)} files")
+    pts, nrm, ids = read_segmented_cloud(files[0])
+    fr = predict_cloud(
+        pts,
+        ids,
+        models,
+        None if args.ignore_normals else nrm,
+        units=args.units,
+        estimator_options=opts,
+        source={"input": str(files[0])},
+        up=args.up,
+    )
+    return fr, {"title": files[0].stem}, files[0].stem
+
+
 def predict_instances(args: argparse.Namespace) -> int:
-    """``ucope predict --instances ID=MODEL ... --depth D --mask M --intrinsics K``: one JSON for all."""
+    """``ucope predict --instances ID=MODEL ... --depth D --mask M --intrinsics K`` (or ``--input CLOUD`` with
+    per-point instance ids): one JSON for all."""
     from ..data.io import read_depth_png, read_intrinsics
     from ..estimation.frame import parse_instance_models, predict_frame
 
-    if args.depth is None or args.mask is None or args.intrinsics is None:
-        raise UcopeError("--instances needs --depth D.png, --mask INSTANCES.png and --intrinsics K.json")
     models = parse_instance_models(args.instances)
-    if args.model is not None:
-        raise UcopeError("give either --model (one object) or --instances ID=MODEL ... (several), not both")
-    depth = read_depth_png(args.depth)
-    mask = read_depth_png(args.mask)
-    K = read_intrinsics(args.intrinsics)
+    _instances_checks(args)
     opts = estimator_options(args)
-    fr = predict_frame(
-        depth,
-        K,
-        mask,
-        models,
-        depth_scale=args.depth_scale,
-        estimator_options=opts,
-        source={"depth": str(args.depth), "mask": str(args.mask), "rgb": args.rgb},
-        up=args.up,
-    )
+    if args.input is not None:
+        fr, frame, stem = _predict_cloud_instances(args, models, opts)
+    else:
+        depth = read_depth_png(args.depth)
+        mask = read_depth_png(args.mask)
+        K = read_intrinsics(args.intrinsics)
+        rgb = read_rgb(args.rgb, depth.shape) if args.rgb else None
+        fr = predict_frame(
+            depth,
+            K,
+            mask,
+            models,
+            depth_scale=args.depth_scale,
+            estimator_options=opts,
+            source={"depth": str(args.depth), "mask": str(args.mask), "rgb": args.rgb},
+            up=args.up,
+            box=args.box,
+        )
+        stem = Path(args.depth).stem
+        frame = {"depth_m": depth.astype(np.float64) / args.depth_scale, "intrinsics": K, "title": stem, "rgb": rgb}
     out = fr.save(args.out)
     for o in fr.objects:
         if o.result is None:
@@ -228,24 +315,8 @@ def predict_instances(args: argparse.Namespace) -> int:
                 f"{o.result.timings_ms.get('total', 0.0):.0f} ms"
             )
     print(f"wrote {out} ({len(fr.results)} of {len(fr.objects)} objects estimated)")
-    stem = Path(args.depth).stem
     im_id = args.bop_im_id if args.bop_im_id is not None else _im_id(stem, 0)
-    jobs = [
-        Job(
-            f"{o.instance_id}: {o.model}",
-            o.result,
-            o.points,
-            im_id=im_id,
-            obj_id=o.instance_id if args.bop_obj_id is None else None,
-        )
-        for o in fr.objects
-    ]
-    frame = {
-        "depth_m": depth.astype(np.float64) / args.depth_scale,
-        "intrinsics": K,
-        "title": stem,
-        "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None,
-    }
+    jobs = [Job(f"{o.instance_id}: {o.model}", o.result, o.points, im_id=im_id) for o in fr.objects]
     write_outputs(args, jobs, frame)
     return 0
 
@@ -256,10 +327,22 @@ def eval_samples(args: argparse.Namespace, category: str) -> tuple[list[dict], d
     from ..data.readers import read_samples
 
     kw: dict = {}
-    if args.format == "nocs" and args.intrinsics is not None:
-        from ..data.io import read_intrinsics
+    only = {"dataset": "nocs", "nocs_gts": "nocs", "urdf_metas": "artimage", "models_info": "bop"}
+    for option, fmt in only.items():
+        if getattr(args, option, None) is not None and args.format != fmt:
+            raise UcopeError(f"--{option.replace('_', '-')} is an option of --format {fmt}, not --format {args.format}")
+    if args.intrinsics is not None and args.format not in ("nocs", "artimage"):
+        raise UcopeError(
+            f"--intrinsics is an option of --format nocs and artimage; --format {args.format} data sets carry their cameras"
+        )
+    if args.format == "nocs":
+        if args.intrinsics is not None:
+            from ..data.io import read_intrinsics
 
-        kw["intrinsics"] = read_intrinsics(args.intrinsics)
+            kw["intrinsics"] = read_intrinsics(args.intrinsics)
+        kw.update(dataset=args.dataset, gts=args.nocs_gts)
+    if args.format == "artimage":
+        kw.update(intrinsics=args.intrinsics, urdf_metas=args.urdf_metas)
     if args.format == "bop":
         kw.update(obj_id=args.bop_obj_id, models_info=args.models_info)
     samples = read_samples(args.format, args.data, category, **kw)
@@ -268,6 +351,8 @@ def eval_samples(args: argparse.Namespace, category: str) -> tuple[list[dict], d
     info = {"path": str(Path(args.data).resolve()), "format": args.format}
     if args.format == "bop":
         info["obj_id"] = args.bop_obj_id
+    if args.format == "nocs":
+        info["ground_truth"] = sorted({str(s.get("gt_source", "coord")) for s in samples})
     return samples, info
 
 

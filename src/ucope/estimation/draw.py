@@ -2,10 +2,14 @@
 
 A picture has one row per :class:`Scene` (one frame, or one cloud): the depth image, the RGB image
 when there is one, and a 3D panel. Over each image every part's box is projected (solid: estimate,
-dashed: ground truth), with the part frame's axis triad at its origin (x red, y green, z blue) and
+dashed: ground truth; dotted and faded with its score beside it: an estimated part whose score is
+below :data:`LOW_SCORE`), with the part frame's axis triad at its origin (x red, y green, z blue) and
 every joint axis (black arrow through the pivot, or from the child part for a prismatic joint; dashed
-grey: ground truth). The legend lists each part in its colour with its score (and its rotation /
-translation / IoU errors when the ground truth is known) and each joint with its state (and errors).
+grey: ground truth). Part colours come from :data:`PART_PALETTE`, which holds no red, green or blue, so
+that a part never looks like a triad axis. Arrows and boxes are clipped to the visible window (an arrow
+whose head lies outside it is drawn up to the window's edge, never dropped). The legend lists each part
+in its colour with its score (and its rotation / translation / IoU errors when the ground truth is
+known), each joint with its state (and errors), and the result's warnings.
 
 Without a depth image (a point cloud given alone) the image panel shows the cloud's own depth, splatted
 through the sample's intrinsics or through a virtual camera fitted to the cloud (:func:`fit_camera`).
@@ -26,7 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.boxes import BOX_EDGES, box_corners
-from ..plotting import PART_COLOURS, pyplot, save_figure, to_plot_axes
+from ..plotting import pyplot, save_figure, to_plot_axes
 
 
 class PoseResult(Protocol):
@@ -55,10 +59,22 @@ __all__ = [
     "part_colours",
     "legend_lines",
     "legend_handles",
+    "warning_lines",
+    "clip_segment",
+    "PART_PALETTE",
+    "AXIS_COLOURS",
+    "LOW_SCORE",
 ]
 
 AXIS_COLOURS = ("#e41a1c", "#2ca02c", "#1f3fff")
 """Triad colours of a part frame's x, y and z axes (red, green, blue)."""
+
+PART_PALETTE = ("#ff8c00", "#9467bd", "#e377c2", "#17becf", "#bcbd22", "#8c6d31", "#7f7f7f", "#637939")
+"""Part colours (orange, purple, pink, cyan, olive, ochre, grey, moss): every hue at least 25 degrees from
+red, green and blue, the triad's colours."""
+
+LOW_SCORE = 0.5
+"""Estimated parts scoring below this are drawn dotted and faded, with their score beside them."""
 
 
 @dataclass
@@ -168,14 +184,55 @@ def splat_depth(points, intrinsics, shape: tuple[int, int], radius: int = 1) -> 
 
 
 def part_colours(scene_objects: Sequence[DrawnObject]) -> list[list[str]]:
-    """The colour of every part of every object: part ``k`` of the first object is ``PART_COLOURS[k]``;
+    """The colour of every part of every object: part ``k`` of the first object is ``PART_PALETTE[k]``;
     later objects continue the sequence, so that the parts of one frame all differ (up to 8)."""
     out, offset = [], 0
     for o in scene_objects:
         K = len(o.result.parts)
-        out.append([PART_COLOURS[(offset + k) % len(PART_COLOURS)] for k in range(K)])
+        out.append([PART_PALETTE[(offset + k) % len(PART_PALETTE)] for k in range(K)])
         offset += K
     return out
+
+
+def _low(obj: DrawnObject, k: int) -> bool:
+    """Whether part ``k`` of an estimate scores below :data:`LOW_SCORE` (a ground truth never does)."""
+    return not obj.truth and float(obj.result.parts[k].score) < LOW_SCORE
+
+
+def clip_segment(a, b, box: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The part of the 2D segment ``a -> b`` inside ``box = (x0, x1, y0, y1)`` (Liang-Barsky), its
+    direction kept, or ``None`` when it misses the box."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    d = b - a
+    x0, x1, y0, y1 = min(box[0], box[1]), max(box[0], box[1]), min(box[2], box[3]), max(box[2], box[3])
+    t0, t1 = 0.0, 1.0
+    for p, q in ((-d[0], a[0] - x0), (d[0], x1 - a[0]), (-d[1], a[1] - y0), (d[1], y1 - a[1])):
+        if p == 0:
+            if q < 0:
+                return None
+            continue
+        t = q / p
+        if p < 0:
+            t0 = max(t0, t)
+        else:
+            t1 = min(t1, t)
+        if t0 > t1:
+            return None
+    return a + t0 * d, a + t1 * d
+
+
+def _image_segment(p0, p1, K, box, near: float = 0.01) -> tuple[np.ndarray, np.ndarray] | None:
+    """The pixel segment of the camera-frame segment ``p0 -> p1``: cut to the part in front of the
+    camera (``z >= near``), projected, and clipped to the window ``box``; ``None`` if nothing is visible."""
+    p0, p1 = np.asarray(p0, np.float64), np.asarray(p1, np.float64)
+    z0, z1 = p0[2], p1[2]
+    if z0 < near and z1 < near:
+        return None
+    if z0 < near or z1 < near:
+        cut = p0 + (near - z0) / (z1 - z0) * (p1 - p0)
+        p0, p1 = (cut, p1) if z0 < near else (p0, cut)
+    uv, _ = project(np.stack([p0, p1]), K)
+    return clip_segment(uv[0], uv[1], box)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -189,12 +246,15 @@ def _joint_state_text(jtype: str, state: float) -> str:
 
 def legend_lines(obj: DrawnObject) -> tuple[list[str], list[str]]:
     """The legend's text for one object: one line per part (label, score, and errors when known) and
-    one per joint (type, state, and errors when known)."""
+    one per joint (type, state, and errors when known). A part scoring below :data:`LOW_SCORE` is marked
+    ``(low)``."""
     r, e = obj.result, obj.errors
     prefix = f"{obj.name}: " if obj.name else ""
     parts = []
     for k, p in enumerate(r.parts):
         line = f"{prefix}{p.label}  " + ("(ground truth)" if obj.truth else f"score {p.score:.2f}")
+        if _low(obj, k):
+            line += " (low)"
         if e is not None and k < len(e.get("parts", [])):
             pe = e["parts"][k]
             line += f"  | err {pe['rotation_deg']:.1f} deg, {100 * pe['translation_m']:.1f} cm, IoU {pe['iou']:.2f}"
@@ -276,7 +336,19 @@ def draw_overlay(ax, scene: Scene, intrinsics, image=None, kind: str = "depth", 
     else:
         ax.imshow(img, interpolation="nearest")
     halo = [pe.Stroke(linewidth=3.2, foreground="white"), pe.Normal()]
+    window = _view_window(scene, K, W, H) if zoom else (-0.5, W - 0.5, -0.5, H - 0.5)
+    x0, x1, y0, y1 = window
     colours = part_colours(scene.objects)
+
+    def arrow(p0, p1, colour: str, lw: float, scale: float, effects=None) -> None:
+        seg = _image_segment(p0, p1, K, window)
+        if seg is None:
+            return
+        props = dict(arrowstyle="-|>", color=colour, lw=lw, mutation_scale=scale, shrinkA=0, shrinkB=0)
+        if effects is not None:
+            props["path_effects"] = effects
+        ax.annotate("", xy=seg[1], xytext=seg[0], arrowprops=props, annotation_clip=False)
+
     for obj, cols in zip(scene.objects, colours, strict=False):
         r = obj.result
         diag = _object_diag(obj)
@@ -298,41 +370,43 @@ def draw_overlay(ax, scene: Scene, intrinsics, image=None, kind: str = "depth", 
         if obj.sample is not None:
             for segs, c in zip(_box_segments(obj.sample["cam_from_part"], obj.sample["size_m"], K), cols, strict=False):
                 ax.add_collection(LineCollection(segs, colors=c, linewidths=1.1, linestyles=(0, (4, 3)), alpha=0.9))
-        for segs, c in zip(_box_segments(r.cam_from_part, r.size_m, K), cols, strict=False):
-            ax.add_collection(LineCollection(segs, colors=c, linewidths=1.6, path_effects=halo))
+        for k, (segs, c) in enumerate(zip(_box_segments(r.cam_from_part, r.size_m, K), cols, strict=False)):
+            if _low(obj, k):  # a doubtful part: dotted, faded, its score written beside it
+                ax.add_collection(LineCollection(segs, colors=c, linewidths=1.4, linestyles=(0, (1, 1.6)), alpha=0.55))
+                inside = [s for s in segs.reshape(-1, 2) if x0 <= s[0] <= x1 and min(y0, y1) <= s[1] <= max(y0, y1)]
+                if inside:
+                    top = min(inside, key=lambda q: q[1])
+                    ax.text(
+                        top[0],
+                        top[1],
+                        f"{r.parts[k].label} {r.parts[k].score:.2f}",
+                        color=c,
+                        fontsize=6,
+                        ha="center",
+                        va="bottom",
+                        alpha=0.9,
+                        path_effects=halo,
+                        clip_on=True,
+                    )
+            else:
+                ax.add_collection(LineCollection(segs, colors=c, linewidths=1.6, path_effects=halo))
         for p in r.parts:  # axis triads: x red, y green, z blue
             T = p.cam_from_part
             L = 0.3 * float(np.max(p.size_m))
-            ends = T[:3, 3] + L * T[:3, :3].T
-            uv, ok = project(np.vstack([T[:3, 3], ends]), K)
-            if ok.all():
-                for a in range(3):
-                    ax.annotate(
-                        "",
-                        xy=uv[1 + a],
-                        xytext=uv[0],
-                        arrowprops=dict(arrowstyle="-|>", color=AXIS_COLOURS[a], lw=1.6, mutation_scale=9, shrinkA=0, shrinkB=0),
-                    )
+            for a in range(3):
+                arrow(T[:3, 3], T[:3, 3] + L * T[:3, a], AXIS_COLOURS[a], 1.6, 9)
         for j in r.joints:
-            seg, ok = project(_joint_segment(_joint_pivot(r, j), j.axis, 0.6 * diag), K)
-            if ok.all():
-                ax.annotate(
-                    "",
-                    xy=seg[1],
-                    xytext=seg[0],
-                    arrowprops=dict(
-                        arrowstyle="-|>", color="k", lw=2.0, mutation_scale=11, shrinkA=0, shrinkB=0, path_effects=halo
-                    ),
-                )
+            seg = _joint_segment(_joint_pivot(r, j), j.axis, 0.6 * diag)
+            arrow(seg[0], seg[1], "k", 2.0, 11, halo)
         if obj.sample is not None:
             piv = np.asarray(obj.sample.get("joint_pivot", np.zeros((0, 3))), np.float64).reshape(-1, 3)
             axes = np.asarray(obj.sample.get("joint_axis", np.zeros((0, 3))), np.float64).reshape(-1, 3)
             for p0, u in zip(piv, axes, strict=False):
                 if np.all(np.isfinite(p0)) and np.all(np.isfinite(u)):
-                    seg, ok = project(_joint_segment(p0, u, 0.5 * diag), K)
-                    if ok.all():
-                        ax.plot(seg[:, 0], seg[:, 1], color="0.45", lw=1.4, ls=(0, (3, 2)))
-    x0, x1, y0, y1 = _view_window(scene, K, W, H) if zoom else (-0.5, W - 0.5, -0.5, H - 0.5)
+                    seg = _joint_segment(p0, u, 0.5 * diag)
+                    vis = _image_segment(seg[0], seg[1], K, window)
+                    if vis is not None:
+                        ax.plot([vis[0][0], vis[1][0]], [vis[0][1], vis[1][1]], color="0.45", lw=1.4, ls=(0, (3, 2)))
     ax.set_xlim(x0, x1)
     ax.set_ylim(y1, y0)
     ax.set_xlabel("u (px)", fontsize=7)
@@ -367,19 +441,41 @@ def _view_window(scene: Scene, K, W: int, H: int) -> tuple[float, float, float, 
     return float(c[0] - half[0]), float(c[0] + half[0]), float(c[1] - half[1]), float(c[1] + half[1])
 
 
+def warning_lines(scene: Scene, width: int = 120) -> list[str]:
+    """The legend's warning lines of a scene: each result's warnings (prefixed by the object's name when
+    the scene holds several), cut to ``width`` characters."""
+    out = []
+    for obj in scene.objects:
+        for w in getattr(obj.result, "warnings", None) or []:
+            text = f"warning{f' ({obj.name})' if obj.name else ''}: {w}"
+            out.append(text if len(text) <= width else text[: width - 3] + "...")
+    return out
+
+
 def legend_handles(scene: Scene) -> list:
-    """The legend entries of a scene: every part in its colour with its score (and errors), every
-    joint, the axis colours of the triads, and the ground-truth line style when there is one."""
+    """The legend entries of a scene: every part in its colour with its score (and errors; a low score
+    dotted), every joint, the axis colours of the triads, the ground-truth line style when there is one,
+    and every warning of the results."""
     from matplotlib.lines import Line2D
 
     handles = []
     for obj, cols in zip(scene.objects, part_colours(scene.objects), strict=False):
         part_text, joint_text = legend_lines(obj)
-        handles += [Line2D([], [], color=c, lw=2.2, label=t) for c, t in zip(cols, part_text, strict=False)]
+        handles += [
+            Line2D(
+                [], [], color=c, lw=2.2, label=t, ls=(0, (1, 1.2)) if _low(obj, k) else "-", alpha=0.6 if _low(obj, k) else 1.0
+            )
+            for k, (c, t) in enumerate(zip(cols, part_text, strict=False))
+        ]
         handles += [Line2D([], [], color="k", lw=2.0, marker=">", markersize=4, label=t) for t in joint_text]
-    handles += [Line2D([], [], color=c, lw=1.6, label=f"part {n} axis") for c, n in zip(AXIS_COLOURS, "xyz", strict=False)]
+    handles += [Line2D([], [], color=c, lw=1.6, label=f"part frame {n} axis") for c, n in zip(AXIS_COLOURS, "xyz", strict=False)]
     if any(o.sample is not None for o in scene.objects):
         handles.append(Line2D([], [], color="0.3", lw=1.1, ls=(0, (4, 3)), label="ground truth (dashed boxes, grey joint axes)"))
+    if any(_low(o, k) for o in scene.objects for k in range(len(o.result.parts))):
+        handles.append(
+            Line2D([], [], color="0.4", lw=1.4, ls=(0, (1, 1.2)), alpha=0.6, label=f"dotted, faded: score < {LOW_SCORE}")
+        )
+    handles += [Line2D([], [], ls="none", marker="$!$", markersize=6, color="#b00020", label=t) for t in warning_lines(scene)]
     return handles
 
 
@@ -388,12 +484,18 @@ def legend_handles(scene: Scene) -> list:
 # --------------------------------------------------------------------------------------------------
 
 
-def _draw_boxes3d(ax, cam_from_part, size_m, colours, style: str, lw: float) -> np.ndarray:
+def _draw_boxes3d(ax, cam_from_part, size_m, colours, style: str, lw: float, faded=None) -> np.ndarray:
+    """Draw boxes on a 3D axis; those flagged in ``faded`` dotted and half transparent."""
     corners = to_plot_axes(box_corners(np.asarray(cam_from_part).reshape(-1, 4, 4), np.asarray(size_m).reshape(-1, 3)))
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
-    for c, colour in zip(corners, colours, strict=False):
-        ax.add_collection3d(Line3DCollection(c[BOX_EDGES], colors=colour, linewidths=lw, linestyles=style))
+    faded = [False] * len(corners) if faded is None else list(faded)
+    for c, colour, f in zip(corners, colours, faded, strict=False):
+        ax.add_collection3d(
+            Line3DCollection(
+                c[BOX_EDGES], colors=colour, linewidths=lw, linestyles=(0, (1, 1.6)) if f else style, alpha=0.55 if f else 1.0
+            )
+        )
     return corners.reshape(-1, 3)
 
 
@@ -407,12 +509,14 @@ def draw_result(
     colours: Sequence[str] | None = None,
     errors: dict | None = None,
     legend: bool = True,
+    truth: bool = False,
 ) -> np.ndarray:
     """Draw one estimate on a matplotlib 3D axis: its points coloured by predicted part, its boxes
-    (solid; ground truth dashed), part triads (x red, y green, z blue) and joint axes (black; ground
-    truth grey). Returns the ``(M, 3)`` plot-axes points drawn (to frame the panel). ``points`` may be
-    ``None`` (boxes only)."""
-    cols = list(colours) if colours is not None else [PART_COLOURS[k % len(PART_COLOURS)] for k in range(len(result.parts))]
+    (solid; dotted and faded below :data:`LOW_SCORE` unless ``truth``; ground truth dashed), part triads
+    (x red, y green, z blue) and joint axes (black; ground truth grey). Returns the ``(M, 3)`` plot-axes
+    points drawn (to frame the panel). ``points`` may be ``None`` (boxes only)."""
+    drawn = DrawnObject(result, truth=truth)
+    cols = list(colours) if colours is not None else [PART_PALETTE[k % len(PART_PALETTE)] for k in range(len(result.parts))]
     allp = []
     if points is not None:
         pts = np.asarray(points, dtype=np.float64)
@@ -428,7 +532,8 @@ def draw_result(
         P = to_plot_axes(pts)
         ax.scatter(P[:, 0], P[:, 1], P[:, 2], c=np.array(cols)[np.clip(labels, 0, len(cols) - 1)], s=1.5, depthshade=False)
         allp.append(P)
-    allp.append(_draw_boxes3d(ax, result.cam_from_part, result.size_m, cols, "-", 1.3))
+    faded = [_low(drawn, k) for k in range(len(result.parts))]
+    allp.append(_draw_boxes3d(ax, result.cam_from_part, result.size_m, cols, "-", 1.3, faded))
     diag = float(np.linalg.norm(np.ptp(allp[-1], axis=0)))
     for p in result.parts:
         T = p.cam_from_part
@@ -452,7 +557,7 @@ def draw_result(
     if legend:
         from matplotlib.lines import Line2D
 
-        part_text, _ = legend_lines(DrawnObject(result, errors=errors))
+        part_text, _ = legend_lines(DrawnObject(result, errors=errors, truth=truth))
         ax.legend(
             handles=[Line2D([], [], color=c, lw=2, label=t.split("  |")[0]) for c, t in zip(cols, part_text, strict=False)],
             loc="upper left",
@@ -524,7 +629,7 @@ def _draw_scene_row(fig, gs_row, legend_slot, scene: Scene, with_rgb: bool) -> N
     ax3 = fig.add_subplot(gs_row[col], projection="3d")
     colours = part_colours(scene.objects)
     allp = [
-        draw_result(ax3, o.points, o.result, o.sample, None, colours=c, errors=o.errors, legend=False)
+        draw_result(ax3, o.points, o.result, o.sample, None, colours=c, errors=o.errors, legend=False, truth=o.truth)
         for o, c in zip(scene.objects, colours, strict=False)
     ]
     _frame3d(ax3, np.concatenate(allp))
@@ -552,7 +657,8 @@ def _legend_cols(scene: Scene) -> int:
 def _legend_rows(scene: Scene) -> int:
     n = (
         sum(len(o.result.parts) + len(o.result.joints) for o in scene.objects)
-        + 3
+        + 4
+        + 2 * len(warning_lines(scene))
         + any(o.sample is not None for o in scene.objects)
     )
     return -(-n // _legend_cols(scene))

@@ -1,10 +1,14 @@
 """A 3D viewer of estimates in the browser (the ``view`` extra: ``pip install "ucope[view]"``, viser).
 
 Each :class:`~ucope.estimation.draw.Scene` (one frame or one cloud) shows its clouds coloured by
-predicted part, every part's box (and the ground truth's, grey), its frame's axis triad (x red,
-y green, z blue), its joint axes (black, labelled with type and state) and a label with the part's
-name and score; several scenes are laid side by side along x. The side panel lists the parts with
-their scores (and errors when known).
+predicted part, every part's box (translucent faces in the part colour and thick edges a shade darker,
+so that a box stands out of its own points; faded for a part scoring below
+:data:`~ucope.estimation.draw.LOW_SCORE`; the ground truth's grey), its frame's axis triad (x red,
+y green, z blue), its joint axes (black, labelled with type and state) and a label with the object's
+name (several objects), the part's name and score; several scenes are laid side by side along x. The
+side panel lists the parts with their scores (and errors when known); the standalone HTML carries the
+same list as a legend over the view. The view opens looking along the camera's line of sight at the
+first scene, from where its objects fill most of the view.
 
 * :func:`show`: a live viewer at ``http://HOST:PORT`` (``ucope predict ... --view``), until Ctrl-C;
 * :func:`write_html`: the same scene as one self-contained HTML file that opens in any browser
@@ -35,9 +39,15 @@ import numpy as np
 from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..geometry.boxes import BOX_EDGES, box_corners
-from .draw import Scene, legend_lines, part_colours
+from .draw import AXIS_COLOURS, LOW_SCORE, Scene, legend_lines, part_colours, warning_lines
 
-__all__ = ["viser_module", "build_scene", "show", "write_html"]
+__all__ = ["viser_module", "build_scene", "show", "write_html", "legend_html"]
+
+VIEW_FOV_DEG = 50.0
+"""Vertical field of view of the opening camera."""
+
+VIEW_FILL = 0.8
+"""Share of the opening view's height that the first scene's objects span."""
 
 
 def viser_module():
@@ -52,6 +62,13 @@ def viser_module():
 def _rgb(hex_colour: str) -> tuple[int, int, int]:
     h = hex_colour.lstrip("#")
     return int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16)
+
+
+def _shade(rgb, k: float) -> tuple[int, int, int]:
+    """``rgb`` darkened (``k < 1``) or blended towards white (``k > 1``: ``k - 1`` of the way)."""
+    c = np.asarray(rgb, np.float64)
+    c = c * k if k <= 1 else c + (255.0 - c) * min(k - 1.0, 1.0)
+    return tuple(int(v) for v in np.clip(np.round(c), 0, 255))
 
 
 def _wxyz(R: np.ndarray) -> np.ndarray:
@@ -112,31 +129,47 @@ def build_scene(server, scenes: Sequence[Scene], max_points: int = 20000) -> lis
                     f"{base}/points",
                     pts.astype(np.float32),
                     palette[np.clip(labels, 0, len(cols) - 1)],
-                    point_size=max(0.0015, 0.006 * diag),
+                    point_size=max(0.001, 0.004 * diag),
                     point_shape="circle",
                     precision="float32",
                 )
                 names.append(f"{base}/points")
             corners = box_corners(r.cam_from_part, r.size_m)  # (K, 8, 3)
+            low = [not obj.truth and float(p.score) < LOW_SCORE for p in r.parts]
+            # edges a shade darker than the part's points (faded towards white for a low score)
+            edge = np.array([_shade(_rgb(c), 1.6 if lo else 0.6) for c, lo in zip(cols, low, strict=True)], np.uint8)
             seg = corners[:, BOX_EDGES].reshape(-1, 2, 3)
-            seg_col = np.repeat(np.array([_rgb(c) for c in cols], np.uint8), len(BOX_EDGES), axis=0)
+            seg_col = np.repeat(edge, len(BOX_EDGES), axis=0)
             sc.add_line_segments(
                 f"{base}/boxes",
                 seg.astype(np.float32),
                 np.repeat(seg_col[:, None], 2, axis=1),
-                thickness=3.0,
+                thickness=5.0,
                 thickness_units="screen",
             )
             names.append(f"{base}/boxes")
             part_text, joint_text = legend_lines(obj)
             for k, p in enumerate(r.parts):
                 T = np.asarray(p.cam_from_part, np.float64)
+                sc.add_box(
+                    f"{base}/box_{k}",
+                    color=_rgb(cols[k]),
+                    dimensions=tuple(float(v) for v in np.maximum(np.asarray(p.size_m, np.float64), 1e-4)),
+                    opacity=0.08 if low[k] else 0.18,
+                    side="double",
+                    cast_shadow=False,
+                    receive_shadow=False,
+                    wxyz=_wxyz(T[:3, :3]),
+                    position=T[:3, 3],
+                )
                 L = 0.3 * float(np.max(p.size_m))
                 sc.add_frame(f"{base}/part_{k}", axes_length=L, axes_radius=0.04 * L, wxyz=_wxyz(T[:3, :3]), position=T[:3, 3])
                 top = corners[k][np.argmin(corners[k][:, 1])]  # the corner highest in the picture (-y is up)
-                text = p.label if obj.truth else f"{p.label} {p.score:.2f}"
+                text = p.label if obj.truth else f"{p.label} {p.score:.2f}" + (" (low)" if low[k] else "")
+                if obj.name:
+                    text = f"{obj.name}: {text}"
                 sc.add_label(f"{base}/label_{k}", text, position=top, anchor="bottom-center")
-                names += [f"{base}/part_{k}", f"{base}/label_{k}"]
+                names += [f"{base}/box_{k}", f"{base}/part_{k}", f"{base}/label_{k}"]
             for q, jt in enumerate(r.joints):
                 piv = np.asarray(jt.pivot_m if jt.pivot_m is not None else r.parts[jt.child].cam_from_part[:3, 3], np.float64)
                 u = np.asarray(jt.axis, np.float64) / (np.linalg.norm(jt.axis) + 1e-12)
@@ -156,17 +189,55 @@ def build_scene(server, scenes: Sequence[Scene], max_points: int = 20000) -> lis
                 )
                 names.append(f"{base}/gt_boxes")
             notes += [f"- **{scene.title or f'scene {i}'}**: " + t for t in part_text + joint_text]
+        notes += [f"- **{scene.title or f'scene {i}'}**: {w}" for w in warning_lines(scene)]
     server.gui.add_markdown(
         "**ucope estimates** (camera frame, metres; boxes in part colours, ground truth grey; "
         "axes x red, y green, z blue; joint axes black)\n\n" + "\n".join(notes)
     )
-    centre = 0.5 * (lo0 + hi0)
-    dist = float(np.linalg.norm(centre))
-    eye = centre * max(0.0, 1.0 - 1.5 * float(np.linalg.norm(hi0 - lo0)) / max(dist, 1e-9))  # on the camera ray, nearer
+    eye, centre = _opening_view(lo0, hi0)
+    server.initial_camera.fov = float(np.radians(VIEW_FOV_DEG))
     server.initial_camera.position = tuple(float(v) for v in eye)
     server.initial_camera.look_at = tuple(float(v) for v in centre)
     server.initial_camera.up = (0.0, -1.0, 0.0)
     return names
+
+
+def _opening_view(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(eye, centre)``: look at the box ``[lo, hi]`` (camera frame) along the camera's line of sight to
+    its centre, from the distance at which its diagonal spans :data:`VIEW_FILL` of a
+    :data:`VIEW_FOV_DEG` view's height."""
+    centre = 0.5 * (np.asarray(lo, np.float64) + np.asarray(hi, np.float64))
+    diag = max(float(np.linalg.norm(np.asarray(hi) - np.asarray(lo))), 1e-3)
+    dist = 0.5 * diag / np.tan(0.5 * np.radians(VIEW_FOV_DEG)) / VIEW_FILL
+    ray = centre / np.linalg.norm(centre) if np.linalg.norm(centre) > 1e-6 else np.array([0.0, 0.0, 1.0])
+    return centre - dist * ray, centre
+
+
+def legend_html(scenes: Sequence[Scene]) -> str:
+    """An HTML ``<div>`` legend of the scenes (part colours with names and scores, joints, warnings, the
+    triad colours), fixed over the top-left corner of the page; :func:`write_html` adds it to the file."""
+    import html
+
+    rows = []
+    for i, scene in enumerate(scenes):
+        title = html.escape(scene.title or f"scene {i}")
+        rows.append(f'<div style="font-weight:600;margin-top:4px">{title}</div>')
+        for obj, cols in zip(scene.objects, part_colours(scene.objects), strict=False):
+            part_text, joint_text = legend_lines(obj)
+            for c, t in zip(cols, part_text, strict=False):
+                rows.append(
+                    f'<div><span style="display:inline-block;width:12px;height:12px;background:{c};'
+                    f'margin-right:6px;vertical-align:middle;border:1px solid #333"></span>{html.escape(t)}</div>'
+                )
+            rows += [f'<div><span style="margin-right:6px">&#8594;</span>{html.escape(t)}</div>' for t in joint_text]
+        rows += [f'<div style="color:#b00020">{html.escape(w)}</div>' for w in warning_lines(scene)]
+    triad = " ".join(f'<span style="color:{c};font-weight:700">{a}</span>' for c, a in zip(AXIS_COLOURS, "xyz", strict=False))
+    rows.append(f"<div>part frame axes: {triad}; joint axes black; ground truth grey; faded: score &lt; {LOW_SCORE}</div>")
+    return (
+        '<div id="ucope-legend" style="position:fixed;left:12px;bottom:12px;z-index:1000;max-width:42%;max-height:45%;'
+        "overflow:auto;background:rgba(255,255,255,0.88);border:1px solid #999;border-radius:6px;padding:6px 10px;"
+        'font:12px/1.35 system-ui,sans-serif;color:#111">' + "".join(rows) + "</div>"
+    )
 
 
 def _server(host: str, port: int, quiet: bool):
@@ -201,7 +272,8 @@ def show(scenes: Sequence[Scene], host: str = "127.0.0.1", port: int = 8080, blo
 
 def write_html(scenes: Sequence[Scene], path: str | os.PathLike, dark_mode: bool = False) -> Path:
     """Write the scenes as one self-contained HTML file (the viewer and the scene inside, about 1 MB
-    plus the clouds), atomically; it opens offline in any browser with WebGL."""
+    plus the clouds, with :func:`legend_html` over the view), atomically; it opens offline in any
+    browser with WebGL."""
     server = _server("127.0.0.1", 0, quiet=True)
     try:
         build_scene(server, scenes)
@@ -210,6 +282,9 @@ def write_html(scenes: Sequence[Scene], path: str | os.PathLike, dark_mode: bool
     finally:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             server.stop()
+    legend = legend_html(scenes)
+    at = html.rfind("</body>")
+    html = html[:at] + legend + html[at:] if at >= 0 else html + legend
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, html)

@@ -2,14 +2,16 @@
 fields: its cloud, and its ground truth in ucope's frames and units), ready for
 :func:`ucope.eval.evaluate.evaluate`.
 
-* :func:`read_nocs`: NOCS CAMERA25 / REAL275 frames (depth, mask, coordinate map, meta);
-* :func:`read_artimage`: ArtImage frames, in the layout documented in :mod:`.artimage`;
+* :func:`read_nocs`: NOCS CAMERA25 / REAL275 frames (depth, mask, coordinate map, meta; NOCS's ``gts``
+  pickles through an unpickler that builds arrays only);
+* :func:`read_artimage`: ArtImage / ReArt annotation files, in the authors' published layout (:mod:`.artimage`);
 * :func:`read_bop`: BOP scenes (scene_camera, scene_gt, depth, masks, models_info);
 * :func:`read_samples`: one of them by name (``ucope eval --format nocs|artimage|bop``).
 
 The layouts each reader expects are in docs/formats.md and the modules' docstrings; every reader is
-strict: a missing file or field raises :class:`ucope.errors.DataError` naming the file and element.
-Reading images needs Pillow (``ucope[images]``).
+strict: a missing file or field, a field of the wrong type, NaN or Inf, a file that is not a regular file
+(a FIFO), a reference leading outside the data set's folder raises :class:`ucope.errors.DataError`
+naming the file and element. Reading images needs Pillow (``ucope[images]``).
 """
 
 from __future__ import annotations
@@ -29,8 +31,8 @@ FORMATS = ("nocs", "artimage", "bop")
 
 def read_samples(fmt: str, root: str | Path, category: str, **kwargs) -> list[dict]:
     """The samples of ``category`` in the data set at ``root`` in format ``fmt`` (one of :data:`FORMATS`);
-    keyword arguments go to the reader (``intrinsics`` for NOCS, ``obj_id`` / ``models_info`` for BOP,
-    ``max_points``)."""
+    keyword arguments go to the reader (``intrinsics``, ``dataset``, ``gts`` for NOCS; ``intrinsics``,
+    ``urdf_metas`` for ArtImage; ``obj_id`` / ``models_info`` for BOP; ``max_points``)."""
     if fmt == "nocs":
         return read_nocs(root, category, **kwargs)
     if fmt == "artimage":

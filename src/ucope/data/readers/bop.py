@@ -16,10 +16,16 @@ object models' ``models_info.json`` (the scene folder, its parent, or ``models/`
 
 Objects and parts: part ``k`` of an object is the model ``obj_id = base + k`` (``--bop-obj-id`` sets
 ``base``, default 1; the rule of ucope's BOP CSV export and of ``ucope generate --images``). A rigid
-model gives one sample per ground-truth entry of ``base``; an articulated one needs the K entries
-``base .. base + K - 1`` once each in an image. The part frame is the model frame moved to its box
-centre (its axes are taken to be the category's canonical axes); ``size_m`` is the box's size. BOP
-has no joints: the samples' joint fields are NaN and joint errors are not measured.
+model gives one sample per ground-truth entry of ``base``. An articulated object is one entry of each of
+``base .. base + K - 1``; an image may hold several: then every obj_id must occur equally often, and each
+entry of ``base`` (the root part) is joined with the entries of the other parts whose box centres lie
+nearest to its own (a minimum-total-distance assignment, per part). The part frame is the model frame
+moved to its box centre (its axes are taken to be the category's canonical axes); ``size_m`` is the
+box's size. BOP has no joints: the samples' joint fields are NaN and joint errors are not measured.
+
+Every field is checked: ``scene_gt.json`` / ``scene_camera.json`` are objects keyed by integer image
+ids, ``cam_K`` finite with positive focal lengths, ``depth_scale`` finite and positive, poses and box
+sizes finite; a bad one raises :class:`~ucope.errors.DataError` naming the file, image and field.
 """
 
 from __future__ import annotations
@@ -30,8 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DataError
-from ...fileio import read_json
-from .common import read_depth, read_label_image, sample_from_pixels
+from .common import finite_array, read_data_json, read_depth, read_label_image, sample_from_pixels
 
 __all__ = ["bop_scenes", "read_models_info", "read_bop"]
 
@@ -66,18 +71,52 @@ def read_models_info(scene: Path, path: str | Path | None = None) -> tuple[Path,
                 "the object boxes (min_x.., size_x.. in mm) come from it"
             )
     path = Path(path)
-    d = read_json(path)
+    d = read_data_json(path, "BOP models_info.json")
+    if not isinstance(d, dict):
+        raise DataError(f"{path}: expected an object keyed by obj_id, got {type(d).__name__}")
     out = {}
-    try:
-        for k, v in d.items():
-            lo = np.array([v["min_x"], v["min_y"], v["min_z"]], np.float64) / 1000.0
-            size = np.array([v["size_x"], v["size_y"], v["size_z"]], np.float64) / 1000.0
-            out[int(k)] = (lo + 0.5 * size, size)
-    except (AttributeError, KeyError, TypeError, ValueError) as e:
-        raise DataError(
-            f"{path}: every object needs min_x, min_y, min_z, size_x, size_y, size_z (mm) ({type(e).__name__}: {e})"
-        ) from None
+    for k, v in d.items():
+        oid = _image_key(k, path, "obj_id")
+        if not isinstance(v, dict) or not all(f in v for f in ("min_x", "min_y", "min_z", "size_x", "size_y", "size_z")):
+            raise DataError(f"{path}: obj_id {k} needs min_x, min_y, min_z, size_x, size_y, size_z (mm)")
+        lo = finite_array([v["min_x"], v["min_y"], v["min_z"]], (3,), f"{path}: obj_id {k}: min_x, min_y, min_z") / 1000.0
+        size = finite_array([v["size_x"], v["size_y"], v["size_z"]], (3,), f"{path}: obj_id {k}: size_x, size_y, size_z") / 1000.0
+        if (size < 0).any():
+            raise DataError(f"{path}: obj_id {k}: size_x, size_y, size_z must be >= 0, got {(1000 * size).tolist()}")
+        out[oid] = (lo + 0.5 * size, size)
     return path, out
+
+
+def _image_key(key, path: Path, what: str = "image id") -> int:
+    """A key of a BOP JSON object as an integer (digits only); :class:`DataError` naming the file otherwise."""
+    if not isinstance(key, str) or not key.strip().isdigit():
+        raise DataError(f"{path}: key {key!r} is not a non-negative integer {what}")
+    return int(key)
+
+
+def _scene_json(path: Path, what: str) -> dict[int, object]:
+    d = read_data_json(path, what)
+    if not isinstance(d, dict):
+        raise DataError(f"{path}: expected an object keyed by image id (BOP's {path.name}), got {type(d).__name__}")
+    return {_image_key(k, path): v for k, v in d.items()}
+
+
+def _camera(cams: dict, im: int, path: Path) -> tuple[tuple[float, float, float, float], float]:
+    """``((fx, fy, cx, cy), depth_scale)`` of image ``im`` from ``scene_camera.json``, checked."""
+    cam = cams.get(im)
+    if cam is None:
+        raise DataError(f"{path}: no entry for image {im}")
+    if not isinstance(cam, dict) or "cam_K" not in cam:
+        raise DataError(f"{path}, image {im}: needs cam_K (9 values, row-wise) and depth_scale")
+    Km = finite_array(cam["cam_K"], (9,), f"{path}, image {im}: cam_K").reshape(3, 3)
+    if not (Km[0, 0] > 0 and Km[1, 1] > 0):
+        raise DataError(f"{path}, image {im}: cam_K needs positive focal lengths, got fx {Km[0, 0]}, fy {Km[1, 1]}")
+    scale = cam.get("depth_scale", 1.0)
+    if isinstance(scale, bool) or not isinstance(scale, int | float) or not (np.isfinite(scale) and scale > 0):
+        raise DataError(
+            f"{path}, image {im}: depth_scale must be a finite number > 0 (depth value x depth_scale = mm), got {scale!r}"
+        )
+    return (float(Km[0, 0]), float(Km[1, 1]), float(Km[0, 2]), float(Km[1, 2])), float(scale)
 
 
 def _mask(scene: Path, im: int, gt_id: int, shape, cache: dict) -> np.ndarray:
@@ -97,6 +136,31 @@ def _mask(scene: Path, im: int, gt_id: int, shape, cache: dict) -> np.ndarray:
     return cache[p] == gt_id
 
 
+def _group_parts(found, poses, ids, where: str, category: str, base: int) -> list[list[int]]:
+    """The ``gt_id`` s of every articulated instance of one image, in its parts' order: each entry of the
+    root part's obj_id joined with the entries of every other part whose box centres lie nearest (one
+    minimum-total-distance assignment per part)."""
+    from scipy.optimize import linear_sum_assignment
+
+    by_id = {o: [g for g, oo in found if oo == o] for o in ids}
+    counts = {o: len(v) for o, v in by_id.items()}
+    if len(set(counts.values())) != 1 or not by_id[ids[0]]:
+        raise DataError(
+            f"{where}: a {category} is one entry of each of obj_ids {ids} (part k = {base} + k); the image holds "
+            f"{', '.join(f'{n} of obj_id {o}' for o, n in counts.items())}: every part must occur as often as the others"
+        )
+    roots = by_id[ids[0]]
+    groups = [[g] for g in roots]
+    centres = np.stack([poses[g][:3, 3] for g in roots])
+    for o in ids[1:]:
+        parts = by_id[o]
+        cost = np.linalg.norm(centres[:, None] - np.stack([poses[g][:3, 3] for g in parts])[None], axis=-1)
+        rows, cols = linear_sum_assignment(cost)
+        for r, c in zip(rows, cols, strict=True):
+            groups[r].append(parts[c])
+    return groups
+
+
 def read_bop(
     root: str | Path, category: str, obj_id: int = 1, models_info: str | Path | None = None, max_points: int = 4096
 ) -> list[dict]:
@@ -114,8 +178,10 @@ def read_bop(
         and ``obj_ids``. Objects with fewer than 32 measured pixels are skipped with a warning.
 
     Raises:
-        DataError: a missing or corrupt file or field (named), an articulated object with a part
-            missing or given twice in an image, an obj_id absent from ``models_info.json``.
+        DataError: a missing or corrupt file or field (named, with its image), a wrong type (a list
+            where an object is due, a key that is not an image id), NaN or Inf, a ``cam_K`` without
+            positive focal lengths, a ``depth_scale`` not > 0, an image whose articulated parts do not all
+            occur equally often, an obj_id absent from ``models_info.json``.
     """
     from ...objects.categories import get_category, make_instance
 
@@ -127,8 +193,9 @@ def read_bop(
     ids = list(range(int(obj_id), int(obj_id) + K))
     samples, skipped = [], []
     for scene in bop_scenes(root):
-        cams = read_json(scene / "scene_camera.json")
-        gts = read_json(scene / "scene_gt.json")
+        cam_path, gt_path = scene / "scene_camera.json", scene / "scene_gt.json"
+        cams = _scene_json(cam_path, "BOP scene_camera.json")
+        gts = _scene_json(gt_path, "BOP scene_gt.json")
         info_path, boxes = read_models_info(scene, models_info)
         for oid in ids:
             if oid not in boxes:
@@ -138,53 +205,47 @@ def read_bop(
         except ValueError:
             scene_id = 0
         mask_cache: dict = {}
-        for im_key in sorted(gts, key=lambda k: int(k)):
-            im = int(im_key)
-            entries = gts[im_key]
-            where = f"{scene / 'scene_gt.json'}, image {im}"
-            try:
-                found = [(g, int(e["obj_id"])) for g, e in enumerate(entries) if int(e["obj_id"]) in ids]
-            except (KeyError, TypeError, ValueError):
-                raise DataError(f"{where}: every entry needs an integer obj_id") from None
+        for im in sorted(gts):
+            entries = gts[im]
+            where = f"{gt_path}, image {im}"
+            if not isinstance(entries, list):
+                raise DataError(f"{where}: expected a list of ground-truth entries, got {type(entries).__name__}")
+            poses: dict[int, np.ndarray] = {}
+            found: list[tuple[int, int]] = []
+            for g, e in enumerate(entries):
+                if not isinstance(e, dict) or "obj_id" not in e:
+                    raise DataError(f"{where}, gt_id {g}: needs obj_id, cam_R_m2c (9 values) and cam_t_m2c (3 values, mm)")
+                o = e["obj_id"]
+                if isinstance(o, bool) or not isinstance(o, int):
+                    raise DataError(f"{where}, gt_id {g}: obj_id must be an integer, got {o!r}")
+                if o not in ids:
+                    continue
+                if "cam_R_m2c" not in e or "cam_t_m2c" not in e:
+                    raise DataError(f"{where}, gt_id {g}: needs cam_R_m2c (9 values) and cam_t_m2c (3 values, mm)")
+                R = finite_array(e["cam_R_m2c"], (9,), f"{where}, gt_id {g}: cam_R_m2c").reshape(3, 3)
+                t = finite_array(e["cam_t_m2c"], (3,), f"{where}, gt_id {g}: cam_t_m2c") / 1000.0
+                if np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+                    raise DataError(f"{where}, gt_id {g}: cam_R_m2c is not a rotation")
+                centre, _ = boxes[o]
+                T = np.eye(4)
+                T[:3, :3], T[:3, 3] = R, R @ centre + t
+                poses[g] = T
+                found.append((g, o))
             if not found:
                 continue
             if K == 1:
                 groups = [[g] for g, _ in found]
             else:
-                got = [o for _, o in found]
-                if sorted(got) != ids:
-                    raise DataError(
-                        f"{where}: a {category} needs obj_ids {ids} once each (part k = {obj_id} + k), got {sorted(got)}"
-                    )
-                groups = [[g for k in ids for g, o in found if o == k]]
-            cam = cams.get(im_key)
-            if cam is None:
-                raise DataError(f"{scene / 'scene_camera.json'}: no entry for image {im}")
-            try:
-                Km = np.asarray(cam["cam_K"], np.float64).reshape(3, 3)
-                depth_scale = float(cam.get("depth_scale", 1.0))
-            except (KeyError, TypeError, ValueError):
-                raise DataError(f"{scene / 'scene_camera.json'}, image {im}: needs cam_K (9 values) and depth_scale") from None
-            intr = (Km[0, 0], Km[1, 1], Km[0, 2], Km[1, 2])
+                groups = _group_parts(found, poses, ids, where, category, obj_id)
+            intr, depth_scale = _camera(cams, im, cam_path)
             depth_path = scene / "depth" / f"{im:06d}.png"
             depth = read_depth(depth_path).astype(np.float64) * depth_scale / 1000.0
             for group in groups:
                 labels = np.full(depth.shape, -1, np.int64)
                 cam_from_part, size = np.zeros((K, 4, 4)), np.zeros((K, 3))
                 for k, g in enumerate(group):
-                    e = entries[g]
-                    try:
-                        R = np.asarray(e["cam_R_m2c"], np.float64).reshape(3, 3)
-                        t = np.asarray(e["cam_t_m2c"], np.float64).reshape(3) / 1000.0
-                    except (KeyError, TypeError, ValueError):
-                        raise DataError(f"{where}, gt_id {g}: needs cam_R_m2c (9 values) and cam_t_m2c (3 values, mm)") from None
-                    if np.abs(R.T @ R - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
-                        raise DataError(f"{where}, gt_id {g}: cam_R_m2c is not a rotation")
-                    centre, sz = boxes[ids[k]]
-                    cam_from_part[k] = np.eye(4)
-                    cam_from_part[k, :3, :3] = R
-                    cam_from_part[k, :3, 3] = R @ centre + t
-                    size[k] = sz
+                    cam_from_part[k] = poses[g]
+                    size[k] = boxes[ids[k]][1]
                     labels[_mask(scene, im, g, depth.shape, mask_cache)] = k
                 gt = {
                     "cam_from_part": cam_from_part,

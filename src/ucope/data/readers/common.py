@@ -1,9 +1,12 @@
-"""Shared pieces of the data-set readers: checked image reads and building a sample from labelled pixels."""
+"""Shared pieces of the data-set readers: checked file and image reads (regular files only, references kept
+inside the data set's folder), checked numbers, and building a sample from labelled pixels."""
 
 from __future__ import annotations
 
+import os
+import stat
 import zlib
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 
 import numpy as np
 
@@ -11,19 +14,92 @@ from ...errors import DataError, InputError
 from ...geometry.normals import estimate_normals
 from ...geometry.sampling import random_subset
 
-__all__ = ["read_image", "read_depth", "read_label_image", "sample_from_pixels", "MIN_OBJECT_POINTS"]
+__all__ = [
+    "regular_file",
+    "inside_root",
+    "read_data_json",
+    "finite_array",
+    "read_image",
+    "read_depth",
+    "read_label_image",
+    "sample_from_pixels",
+    "MIN_OBJECT_POINTS",
+]
 
 MIN_OBJECT_POINTS = 32
 """Objects with fewer measured pixels than this are skipped (the estimator needs 32 points)."""
 
 
+def regular_file(path: str | Path, what: str) -> Path:
+    """``path`` if it is a regular file (following links); :class:`DataError` naming it and ``what`` it
+    should be when it is missing, a folder, or a FIFO, socket or device (reading those could block)."""
+    path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file (the {what})") from None
+    except OSError as e:
+        raise DataError(f"{path}: cannot read the {what} ({e.strerror or e})") from None
+    if not stat.S_ISREG(mode):
+        kind = "a folder" if stat.S_ISDIR(mode) else "not a regular file (a FIFO, socket or device)"
+        raise DataError(f"{path}: {kind}, expected the {what}")
+    return path
+
+
+def inside_root(root: str | Path, reference, what: str, where: str, subdirs: tuple[str, ...] = ("",)) -> Path:
+    """The file a data set's annotation refers to, kept inside the data set: ``reference`` must be a
+    relative path without ``..`` that, joined to ``root / subdir`` (the first of ``subdirs`` where it
+    exists), resolves (links followed) inside ``root``.
+
+    Raises :class:`DataError` naming ``where`` (the annotation and field) for an absolute path, a ``..``
+    component, a reference that leaves ``root`` through a link, or one that is not a string."""
+    if not isinstance(reference, str) or not reference:
+        raise DataError(f"{where}: must be a relative file path (a string), got {reference!r}")
+    parts = PurePosixPath(reference.replace("\\", "/")).parts
+    if PurePosixPath(reference).is_absolute() or PureWindowsPath(reference).is_absolute() or PureWindowsPath(reference).drive:
+        raise DataError(f"{where}: {reference!r} is an absolute path; data-set references must stay inside {root}")
+    if ".." in parts:
+        raise DataError(f"{where}: {reference!r} climbs out with '..'; data-set references must stay inside {root}")
+    root = Path(root)
+    cands = [root / sub / reference for sub in subdirs]
+    path = next((c for c in cands if c.exists()), cands[0])
+    real_root = root.resolve()
+    real = path.resolve()
+    if real != real_root and real_root not in real.parents:
+        raise DataError(f"{where}: {reference!r} leads to {real}, outside the data set's folder {real_root} (through a link)")
+    return path
+
+
+def read_data_json(path: str | Path, what: str):
+    """A data set's JSON file, read through :func:`ucope.fileio.read_json` after checking that it is a
+    regular file (:class:`DataError` naming it otherwise)."""
+    from ...fileio import read_json
+
+    return read_json(regular_file(path, what))
+
+
+def finite_array(value, shape: tuple, where: str, what: str = "numbers") -> np.ndarray:
+    """``value`` as a float64 array of ``shape`` (``-1`` = any length) with every entry finite;
+    :class:`DataError` naming ``where`` for a ragged or non-numeric value, another shape, NaN or Inf."""
+    if isinstance(value, bool | str | bytes | dict) or value is None:
+        raise DataError(f"{where}: expected {what} of shape {shape}, got {type(value).__name__} {str(value)[:60]!r}")
+    try:
+        arr = np.asarray(value, np.float64)
+    except (TypeError, ValueError):
+        raise DataError(f"{where}: expected {what} of shape {shape} (a ragged or non-numeric list)") from None
+    if arr.ndim != len(shape) or any(s not in (-1, n) for s, n in zip(shape, arr.shape, strict=True)):
+        raise DataError(f"{where}: expected {what} of shape {shape}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise DataError(f"{where}: {what} must be finite, got NaN or Inf")
+    return arr
+
+
 def read_image(path: str | Path, what: str) -> np.ndarray:
     """A PNG / JPEG image as an array (``(H, W)`` or ``(H, W, C)``, its own dtype; 16-bit kept).
 
-    Raises :class:`DataError` naming the file and ``what`` it should be, if missing or unreadable."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(f"{path}: no such file (the {what})")
+    Raises :class:`DataError` naming the file and ``what`` it should be, if missing, not a regular file
+    or unreadable."""
+    path = regular_file(path, what)
     try:
         from PIL import Image
     except ImportError:  # pragma: no cover - depends on the environment
