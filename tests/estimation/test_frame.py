@@ -33,7 +33,7 @@ def test_an_instance_without_enough_pixels_gets_an_error_not_a_crash():
     mask = np.zeros((60, 80), np.uint8)
     mask[10:40, 10:50] = 1
     mask[0, :5] = 2  # 5 pixels
-    fr = predict_frame(depth, K, mask, {1: "mug", 2: "mug"}, estimator_options={"num_pairs": 500})
+    fr = predict_frame(depth, K, mask, {1: "mug", 2: "mug"}, estimator_options={"overrides": {"vote_parts.num_pairs": 500}})
     assert fr.objects[0].result is not None and fr.objects[1].result is None and "32" in fr.objects[1].error
     with pytest.raises(InputError, match="instance 2 \\(mug\\)"):
         predict_frame(depth, K, mask, {2: "mug"}, keep_going=False)
