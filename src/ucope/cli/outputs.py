@@ -347,6 +347,7 @@ def predict_instances(args: argparse.Namespace) -> int:
     depth = read_depth_png(args.depth)
     mask = read_depth_png(args.mask)
     K = read_intrinsics(args.intrinsics)
+    rgb = read_rgb(args.rgb, depth.shape) if args.rgb else None  # a bad image is said before any result is written
     opts = estimator_options(args)
     fr = predict_frame(
         depth,
@@ -384,7 +385,7 @@ def predict_instances(args: argparse.Namespace) -> int:
         "depth_m": depth.astype(np.float64) / args.depth_scale,
         "intrinsics": K,
         "title": stem,
-        "rgb": read_rgb(args.rgb, depth.shape) if args.rgb else None,
+        "rgb": rgb,
     }
     write_outputs(args, jobs, frame)
     return 0
