@@ -282,6 +282,7 @@ LOCK_NAME = ".generate.lock"
 """The file whose lock serialises the start of ``generate`` runs in one folder (see :func:`generate_dataset`)."""
 
 _LOCK_WAIT_S = 30.0
+_LOCKS_UNSUPPORTED = False  # set once a file system refused a lock (warned about once)
 
 
 def _try_lock(fd: int) -> bool:
@@ -303,6 +304,16 @@ def _try_lock(fd: int) -> bool:
         return True
     except BlockingIOError:
         return False
+    except OSError as e:  # a file system without locks (some network mounts): go on unguarded, and say so once
+        global _LOCKS_UNSUPPORTED
+        if not _LOCKS_UNSUPPORTED:
+            _LOCKS_UNSUPPORTED = True
+            print(
+                f"warning: this file system does not support file locks ({e.strerror or e}): concurrent `ucope generate` "
+                "runs into one folder are not kept apart",
+                file=sys.stderr,
+            )
+        return True
 
 
 def _open_lock(path: Path) -> int | None:
