@@ -127,7 +127,7 @@ def test_read_spec_names_missing_and_broken_files(tmp_path):
     with pytest.raises(InputError, match=r"category spec .*nope.json does not exist"):
         read_spec(tmp_path / "nope.json")
     (tmp_path / "bad.json").write_text("{parts: ")
-    with pytest.raises(InputError, match=r"bad.json is not readable JSON"):
+    with pytest.raises(InputError, match=r"category spec .*bad.json is not valid JSON"):
         read_spec(tmp_path / "bad.json")
     (tmp_path / "list.json").write_text("[]")
     with pytest.raises(InputError, match=r"must be a JSON object"):

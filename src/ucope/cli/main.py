@@ -16,13 +16,16 @@ __all__ = ["main", "build_parser"]
 
 
 def _parse_shards(text: str | None) -> range | None:
+    """``--shards START:STOP`` as a range (STOP exclusive); an empty, reversed or negative range is refused."""
     if text is None:
         return None
     try:
-        a, b = text.split(":")
-        return range(int(a), int(b))
+        a, b = (int(v) for v in text.split(":"))
     except ValueError:
         raise UcopeError(f"--shards must look like START:STOP (e.g. 0:10), got {text!r}") from None
+    if a < 0 or b <= a:
+        raise UcopeError(f"--shards {text}: START must be >= 0 and below STOP (STOP is exclusive: 0:1 is shard 0 alone)")
+    return range(a, b)
 
 
 def _spec_summary(own) -> str:
@@ -61,16 +64,27 @@ def _spec_summary(own) -> str:
 def cmd_categories(args: argparse.Namespace) -> int:
     from ..objects.categories import list_categories
 
+    if args.spec is None and (args.picture is not None or args.no_picture):
+        raise UcopeError("--picture and --no-picture are for checking a category spec: add --spec FILE")
+    if args.picture is not None and args.no_picture:
+        raise UcopeError("--picture FILE and --no-picture contradict each other: give one")
     if args.spec is not None:
         from ..data.visualize import plot_object
         from ..objects.spec import load_spec
+        from .outputs import writable_path
 
+        if not args.no_picture:
+            from ..plotting import pyplot
+
+            pyplot()  # a missing matplotlib is said before the spec's files are read
         own = load_spec(args.spec)
+        out = Path(args.picture or f"conventions_{own.name}.png")
+        if not args.no_picture:
+            writable_path(out, "--picture")
         print(_spec_summary(own))
         if not args.no_picture:
             obj = own.objects[own.families[0]]
             state = obj.limits.mean(axis=1) if obj.joints else None
-            out = Path(args.picture or f"conventions_{own.name}.png")
             title = f"{own.name} ({own.families[0]})" + (
                 f": state {[round(float(v), 2) for v in state]}" if state is not None else ""
             )
@@ -133,11 +147,17 @@ def _number_pair(text: str) -> tuple[float, float]:
 def cmd_generate(args: argparse.Namespace) -> int:
     from ..data.generate import generate_dataset
 
+    shards = _parse_shards(args.shards)
     cfg = _generate_config(args)
     t0 = time.perf_counter()
-    out = generate_dataset(args.out, cfg, workers=args.workers, shards=_parse_shards(args.shards), progress=not args.quiet)
+    out = generate_dataset(args.out, cfg, workers=args.workers, shards=shards, progress=not args.quiet)
     if not args.quiet:
-        print(f"wrote {cfg.num} {cfg.category}/{cfg.split} views to {out} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        if shards is None:
+            what = f"{cfg.num} {cfg.category}/{cfg.split} views"
+        else:
+            n = min(cfg.num, shards.stop * cfg.shard_size) - shards.start * cfg.shard_size
+            what = f"shards {shards.start}:{shards.stop} of {cfg.num_shards} ({n} {cfg.category}/{cfg.split} views)"
+        print(f"wrote {what} to {out} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 0
 
 
@@ -152,7 +172,14 @@ def cmd_show(args: argparse.Namespace) -> int:
             raise UcopeError(f"--index {i} is out of range: {args.data} holds {len(ds)} samples")
     if args.out is None and not (args.view or args.view_html):
         raise UcopeError("give --out PNG, --view or --view-html FILE")
+    from .outputs import check_outputs, check_view_options
+
+    check_view_options(args)
+    check_outputs([("--out", args.out, False), ("--view-html", args.view_html, False)])
     if args.out is not None:
+        from ..plotting import pyplot
+
+        pyplot()
         print(f"wrote {plot_samples([ds[i] for i in idx], args.out)}")
     if args.view or args.view_html:
         from .outputs import show_view
@@ -167,8 +194,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from ..estimation.estimator import Estimator
     from ..eval.evaluate import sample_errors
     from ..fileio import atomic_write_json
+    from ..plotting import pyplot
+    from .outputs import writable_path
 
-    out = Path(args.out)
+    pyplot()  # the demo ends with a picture: a missing matplotlib is said first
+    out = writable_path(args.out, "--out", folder=True)
+    if args.num <= 0:
+        raise UcopeError(f"--num must be a positive number of views, got {args.num}")
     out.mkdir(parents=True, exist_ok=True)
     items = []
     t0 = time.perf_counter()
@@ -246,7 +278,9 @@ def _fmt_list(values, fmt: str) -> str:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from ..model.train import TrainConfig, train
+    from .outputs import writable_path
 
+    writable_path(args.out, "--out", folder=True)  # the run folder: said before any data is read
     overrides = {}
     if args.pairs_per_part is not None:
         overrides["pairs_per_part"] = args.pairs_per_part
@@ -412,31 +446,88 @@ def _read_cloud(path: Path):
     return pts, nrm
 
 
+def _check_predict_options(args: argparse.Namespace) -> None:
+    """Refuse the ``predict`` options that the others given would ignore, then fill in the defaults of
+    those whose use depends on another (``--units``, ``--depth-scale``, ``--bop-scene-id``)."""
+    sources = [o for o, v in (("--input", args.input), ("--depth", args.depth), ("--data", args.data)) if v is not None]
+    if len(sources) > 1:
+        raise UcopeError(f"give one input: {' and '.join(sources)} cannot be combined (all but one would be ignored)")
+    if args.instances:
+        for option, value in (("--data", args.data), ("--mask-label", args.mask_label)):
+            if value is not None:
+                raise UcopeError(
+                    f"{option} does not go with --instances (the instance mask --mask, or the cloud's per-point ids, select "
+                    "each object)"
+                )
+    if args.depth is None:
+        frame_only = {
+            "--mask": args.mask,
+            "--box": args.box,
+            "--rgb": args.rgb,
+            "--intrinsics": args.intrinsics,
+            "--depth-scale": args.depth_scale,
+            "--mask-label": args.mask_label,
+        }
+        given = [o for o, v in frame_only.items() if v is not None]
+        if given:
+            raise UcopeError(f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for a --depth frame: add --depth D.png")
+    if args.mask_label is not None and args.mask is None:
+        raise UcopeError("--mask-label picks values of the --mask image: add --mask M.png")
+    if args.rgb is not None and args.vis is None and not args.instances:
+        raise UcopeError("--rgb is drawn under the estimates by --vis: add --vis PNG")
+    if args.index is not None and args.data is None:
+        raise UcopeError("--index picks samples of a data set: add --data DIR")
+    if args.units is not None and args.input is None:
+        raise UcopeError(
+            "--units is the length unit of --input clouds (depth images have --depth-scale; data sets are in metres)"
+        )
+    bop = [("--bop-scene-id", args.bop_scene_id), ("--bop-im-id", args.bop_im_id), ("--bop-obj-id", args.bop_obj_id)]
+    given = [o for o, v in bop if v is not None]
+    if given and args.bop_csv is None:
+        raise UcopeError(f"{', '.join(given)} {'sets' if len(given) == 1 else 'set'} the rows of --bop-csv: add --bop-csv FILE")
+    args.units = "m" if args.units is None else args.units
+    args.depth_scale = 1000.0 if args.depth_scale is None else args.depth_scale
+    args.bop_scene_id = 0 if args.bop_scene_id is None else args.bop_scene_id
+
+
 def _result_path(out: str, name: str, many: bool) -> Path:
     """Where a result goes: ``OUT/NAME.json`` when there are several results or ``--out`` names a folder
     (it exists as one, or ends with a slash), else ``OUT`` itself."""
-    folder = many or out.endswith(("/", "\\")) or Path(out).is_dir()
-    return Path(out) / f"{name}.json" if folder else Path(out)
+    return Path(out) / f"{name}.json" if _out_is_folder(out, many) else Path(out)
+
+
+def _out_is_folder(out: str, many: bool) -> bool:
+    return many or out.endswith(("/", "\\")) or Path(out).is_dir()
 
 
 def cmd_predict(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..estimation.inputs import UNITS
+    from ..estimation.inputs import UNITS, roll_to_up
     from ..fileio import atomic_write_json
-    from .outputs import Job, job_im_ids, predict_instances, write_outputs
+    from .outputs import Job, check_outputs, check_view_options, job_im_ids, predict_instances, write_outputs
 
+    _check_predict_options(args)
+    check_view_options(args)
+    if args.up is not None:
+        try:
+            roll_to_up(args.up)
+        except UcopeError as e:
+            raise UcopeError(f"--up: {e}") from None
     if args.vis is not None:
         from ..plotting import pyplot
 
         pyplot()  # a missing matplotlib is said before any work
+    pictures = [("--vis", args.vis, False), ("--bop-csv", args.bop_csv, False), ("--view-html", args.view_html, False)]
     if args.instances:
+        check_outputs([("--out", args.out, False), *pictures])
         return predict_instances(args)
     if args.model is None:
         raise UcopeError("--model is required (or --instances ID=MODEL ... for several objects in one frame)")
-    est = _estimator(args)
     jobs, frame = _predict_jobs(args)
     many = len(jobs) > 1
+    check_outputs([("--out", args.out, _out_is_folder(args.out, many)), *pictures])
+    est = _estimator(args)
     bar = None
     if many and not args.quiet:
         try:
@@ -491,11 +582,18 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from ..data.dataset import load_dataset
     from ..eval.evaluate import evaluate, format_report
     from ..fileio import atomic_write_json
+    from .outputs import check_eval_format_options, writable_path
 
-    est = _estimator(args)
+    if args.data is not None and args.data_dir is not None:
+        raise UcopeError(f"give the data set once: DIR ({args.data_dir}) or --data ({args.data})")
     args.data = args.data or args.data_dir
     if args.data is None:
         raise UcopeError("give the data set: --data DIR (or DIR)")
+    if args.num is not None and args.num <= 0:
+        raise UcopeError(f"--num must be positive, got {args.num}")
+    check_eval_format_options(args)
+    writable_path(args.out, "--out")
+    est = _estimator(args)
     if args.format != "ucope":
         from .outputs import eval_samples
 
@@ -515,7 +613,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
     report = evaluate(est, ds[:n], progress=not args.quiet, data_info=info)
     report["command"] = "ucope " + shlex.join(args.argv)
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UcopeError(f"--out {out}: cannot create its folder ({e.strerror or e})") from None
     atomic_write_json(out, report)
     print(format_report(report))
     print(f"wrote {out}")
@@ -750,7 +851,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="point cloud file (.npy .npz .ply .pcd .xyz .txt .pts; organised clouds too), a folder or a "
         "glob (quote it): one segmented object in the camera frame",
     )
-    pr.add_argument("--units", choices=["m", "cm", "mm"], default="m", help="length unit of the --input clouds (default m)")
+    pr.add_argument("--units", choices=["m", "cm", "mm"], default=None, help="length unit of the --input clouds (default m)")
     pr.add_argument("--ignore-normals", action="store_true", help="estimate normals even when the file holds some")
     pr.add_argument(
         "--up",
@@ -768,7 +869,9 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument(
         "--box", type=float, nargs=4, default=None, metavar=("X0", "Y0", "X1", "Y1"), help="pixel box to crop the depth to"
     )
-    pr.add_argument("--depth-scale", type=float, default=1000.0, help="depth units per metre (default 1000: millimetres)")
+    pr.add_argument(
+        "--depth-scale", type=float, default=None, help="with --depth: depth units per metre (default 1000: millimetres)"
+    )
     pr.add_argument(
         "--data", help="a data set folder: predict on its samples (--index) and report errors against the ground truth"
     )
@@ -841,6 +944,9 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # a bug of ours: one line, the traceback on request
         if os.environ.get("UCOPE_DEBUG"):
             raise
+        if isinstance(e, OSError) and e.filename is not None:  # the file system said no (a full disk...): not a bug
+            print(f"ucope {args.command}: error: {e.filename}: {e.strerror or e}", file=sys.stderr)
+            return 2
         print(
             f"ucope {args.command}: internal error: {type(e).__name__}: {e} (please report it; UCOPE_DEBUG=1 shows the "
             "traceback)",

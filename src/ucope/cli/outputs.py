@@ -6,7 +6,9 @@ frame (``--instances``) and data sets in other formats (``eval --format``). Kept
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +16,15 @@ import numpy as np
 from ..errors import UcopeError
 
 __all__ = [
+    "VIEW_HOST",
+    "VIEW_PORT",
+    "writable_path",
+    "check_outputs",
+    "check_view_options",
     "add_output_options",
     "add_view_options",
     "add_eval_format_options",
+    "check_eval_format_options",
     "Job",
     "write_outputs",
     "predict_instances",
@@ -35,11 +43,99 @@ class Job:
         self.im_id = int(im_id)
 
 
+VIEW_HOST, VIEW_PORT = "127.0.0.1", 8080
+"""Where the ``--view`` server listens unless ``--view-host`` / ``--view-port`` say otherwise."""
+
+
 def add_view_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--view", action="store_true", help='open the 3D viewer in the browser (needs "ucope[view]"; Ctrl-C stops it)')
     p.add_argument("--view-html", default=None, metavar="FILE", help="write the 3D view as one self-contained HTML file")
-    p.add_argument("--view-port", type=int, default=8080, help="port of the --view server (default 8080)")
-    p.add_argument("--view-host", default="127.0.0.1", help="address the --view server listens on (default 127.0.0.1)")
+    p.add_argument(
+        "--view-port", type=int, default=None, help=f"with --view: port of the server (default {VIEW_PORT}; 0: any free)"
+    )
+    p.add_argument(
+        "--view-host",
+        default=None,
+        help=f"with --view: address the server listens on (default {VIEW_HOST}: this machine only; 0.0.0.0 opens it to every "
+        "machine that can reach this one, without authentication)",
+    )
+
+
+def writable_path(path: str | os.PathLike, option: str, folder: bool = False) -> Path:
+    """Check, before any work starts, that the output ``path`` of ``option`` can be written: a file
+    (``folder=False``) or a folder (created later with its parents). Creates nothing: a probe file is
+    made and removed in the nearest existing folder.
+
+    Raises :class:`UcopeError` naming the option, the path and the problem: a folder where a file is
+    wanted (or a file where a folder is), a FIFO or a device, a file where a parent folder should be,
+    a name too long, no permission or a read-only file system."""
+    p = Path(path)
+    where = f"{option} {p}"
+    try:
+        if p.exists():
+            if folder and not p.is_dir():
+                raise UcopeError(f"{where}: it exists and is not a folder")
+            if not folder and p.is_dir():
+                raise UcopeError(f"{where} is a folder: give a file name")
+            if not folder and not p.is_file():
+                raise UcopeError(f"{where} is not a regular file (a FIFO or a device): give a file name")
+        base = p if folder and p.is_dir() else p.parent
+        new = [] if base is p else [p.name]
+        while not base.exists():
+            if base.parent == base:  # the root (or a removed working folder) does not exist
+                raise UcopeError(f"{where}: {base} does not exist")
+            new.append(base.name)
+            base = base.parent
+        if not base.is_dir():
+            raise UcopeError(f"{where}: {base} is a file, not a folder")
+        try:
+            name_max = int(os.pathconf(base, "PC_NAME_MAX"))
+        except (OSError, ValueError, AttributeError):
+            name_max = 255
+        for name in new:
+            if len(os.fsencode(name)) > name_max:
+                raise UcopeError(f"{where}: the name {name[:24]}... is too long (the file system allows {name_max} bytes)")
+        fd, probe = tempfile.mkstemp(prefix=".ucope_write_test_", dir=base)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise UcopeError(f"{where}: cannot write there ({e.strerror or e})") from None
+    return p
+
+
+def check_outputs(targets: list[tuple[str, str | os.PathLike | None, bool]]) -> None:
+    """:func:`writable_path` of every ``(option, path, is_folder)`` given (``path`` not ``None``), and no
+    two options naming one file (a picture would overwrite the result JSON)."""
+    seen: dict[str, str] = {}
+    for option, path, folder in targets:
+        if path is None:
+            continue
+        writable_path(path, option, folder)
+        key = os.path.normcase(os.path.abspath(path))
+        if key in seen:
+            raise UcopeError(f"{seen[key]} and {option} name the same path {path}: give each its own")
+        seen[key] = option
+
+
+def _view_address(args: argparse.Namespace) -> tuple[str, int]:
+    host, port = getattr(args, "view_host", None), getattr(args, "view_port", None)
+    return (VIEW_HOST if host is None else host), (VIEW_PORT if port is None else port)
+
+
+def check_view_options(args: argparse.Namespace) -> None:
+    """Before any work: ``--view-host`` / ``--view-port`` only with ``--view``; the viewer's extra
+    installed; the address usable (:func:`ucope.estimation.view3d.check_address`). Fills in the
+    default host and port."""
+    given = [o for o, v in (("--view-host", args.view_host), ("--view-port", args.view_port)) if v is not None]
+    if given and not args.view:
+        raise UcopeError(f"{' and '.join(given)} {'are' if len(given) > 1 else 'is'} for the --view server: add --view")
+    args.view_host, args.view_port = _view_address(args)
+    if args.view or args.view_html:
+        from ..estimation.view3d import check_address, viser_module
+
+        viser_module()
+        if args.view:
+            check_address(args.view_host, args.view_port, names=("--view-host", "--view-port"))
 
 
 def add_output_options(p: argparse.ArgumentParser) -> None:
@@ -62,12 +158,12 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         help="also write the estimates as a BOP results CSV (obj_id of part k = base + k; the objects of one image "
         "numbered on; the obj_id of every (object, part) in FILE's .obj_ids.json beside it)",
     )
-    p.add_argument("--bop-scene-id", type=int, default=0, help="BOP scene_id of the rows (default 0)")
+    p.add_argument("--bop-scene-id", type=int, default=None, help="with --bop-csv: BOP scene_id of the rows (default 0)")
     p.add_argument(
         "--bop-im-id",
         type=int,
         default=None,
-        help="BOP im_id of the rows (default: the sample index with --data, the file name when it is a number, "
+        help="with --bop-csv: BOP im_id of the rows (default: the sample index with --data, the file name when it is a number, "
         "else the input's position)",
     )
     p.add_argument(
@@ -115,11 +211,25 @@ def add_eval_format_options(p: argparse.ArgumentParser) -> None:
         help="with --format artimage: the urdf_metas.json (default DIR/urdf_metas.json)",
     )
     p.add_argument(
-        "--bop-obj-id", type=int, default=1, help="with --format bop: the obj_id of part 0 (part k is this + k; default 1)"
+        "--bop-obj-id", type=int, default=None, help="with --format bop: the obj_id of part 0 (part k is this + k; default 1)"
     )
     p.add_argument(
         "--models-info", default=None, help="with --format bop: the models_info.json holding the object boxes (default: searched)"
     )
+
+
+def check_eval_format_options(args: argparse.Namespace) -> None:
+    """Refuse the ``eval`` options that the chosen ``--format`` would ignore; fill in ``--bop-obj-id``'s default."""
+    only = {
+        "--intrinsics": ("nocs", args.intrinsics),
+        "--models-info": ("bop", args.models_info),
+        "--bop-obj-id": ("bop", args.bop_obj_id),
+    }
+    for option, (fmt, value) in only.items():
+        if value is not None and args.format != fmt:
+            raise UcopeError(f"{option} is for --format {fmt} only; --format {args.format} would ignore it")
+    if args.bop_obj_id is None:
+        args.bop_obj_id = 1
 
 
 def _im_id(name: str, position: int) -> int:
@@ -187,7 +297,7 @@ def write_outputs(args: argparse.Namespace, jobs: list[Job], frame: dict | None 
         if args.view_html:
             print(f"wrote {write_html(scenes, args.view_html)} (open it in a browser)")
         if args.view:
-            show(scenes, host=args.view_host, port=args.view_port, block=True)
+            show(scenes, *_view_address(args), block=True)
 
 
 def read_rgb(path: str, shape: tuple[int, int] | None) -> np.ndarray:
@@ -405,6 +515,6 @@ def show_view(args: argparse.Namespace, samples: list[dict]) -> None:
     if args.view_html:
         print(f"wrote {write_html(scenes, args.view_html)} (open it in a browser)")
     if args.view:
-        show(scenes, host=args.view_host, port=args.view_port, block=True)
+        show(scenes, *_view_address(args), block=True)
     if not (args.view or args.view_html):  # pragma: no cover - the caller checks
         print("nothing to show", file=sys.stderr)

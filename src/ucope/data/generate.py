@@ -108,6 +108,9 @@ class GenerateConfig:
             raise InputError("a stretch share needs a stretch range (--stretch LOW,HIGH) to draw the factors from")
         if not 0.0 <= float(self.adjacent_distractor) <= 1.0:
             raise InputError(f"adjacent_distractor must be a probability in [0, 1], got {self.adjacent_distractor!r}")
+        nd = self.view.num_distractors
+        if not isinstance(nd, int | np.integer) or isinstance(nd, bool) or nd < 0:
+            raise InputError(f"distractors (the most distractor objects per view) must be an integer >= 0, got {nd!r}")
 
     @property
     def num_shards(self) -> int:
@@ -275,7 +278,175 @@ def _worker_init(parent: int) -> None:
         os._exit(1)
 
 
-def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
+LOCK_NAME = ".generate.lock"
+"""The file whose lock serialises the start of ``generate`` runs in one folder (see :func:`generate_dataset`)."""
+
+_LOCK_WAIT_S = 30.0
+_LOCKS_UNSUPPORTED = False  # set once a file system refused a lock (warned about once)
+
+
+def _try_lock(fd: int) -> bool:
+    """Take an exclusive kernel lock on the open file ``fd`` without waiting; ``False`` when another
+    process holds it. The kernel releases it when the process ends, however it ends."""
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+
+        try:
+            os.lseek(fd, 0, os.SEEK_SET)
+            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+            return True
+        except OSError:
+            return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+    except OSError as e:  # a file system without locks (some network mounts): go on unguarded, and say so once
+        global _LOCKS_UNSUPPORTED
+        if not _LOCKS_UNSUPPORTED:
+            _LOCKS_UNSUPPORTED = True
+            print(
+                f"warning: this file system does not support file locks ({e.strerror or e}): concurrent `ucope generate` "
+                "runs into one folder are not kept apart",
+                file=sys.stderr,
+            )
+        return True
+
+
+def _open_lock(path: Path) -> int | None:
+    """Open ``path`` (created if missing) and lock it; ``None`` when another process holds its lock."""
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        if not _try_lock(fd):
+            os.close(fd)
+            return None
+        try:
+            same = os.path.samestat(os.fstat(fd), os.stat(path))
+        except FileNotFoundError:
+            same = False
+        if same:
+            return fd
+        os.close(fd)  # the file was removed while we waited for it: lock the new one
+
+
+class _RunLock:
+    """This run's claim on its shards of a data-set folder (see :func:`generate_dataset`)."""
+
+    def __init__(self, out: Path, fd: int, path: Path):
+        self.out, self.fd, self.path = out, fd, path
+
+    def release(self) -> None:
+        if self.fd is None:
+            return
+        with _folder_lock(self.out):  # no other run probes the file while it goes
+            try:
+                self.path.unlink()
+            except FileNotFoundError:
+                pass
+            os.close(self.fd)
+            self.fd = None
+
+
+class _folder_lock:
+    """The folder's start lock (:data:`LOCK_NAME`), held while a run checks ``meta.json`` and the other
+    runs' claims and registers its own; waits up to 30 s for another run's start."""
+
+    def __init__(self, out: Path):
+        self.out = out
+        self.fd: int | None = None
+
+    def __enter__(self):
+        import time
+
+        deadline = time.monotonic() + _LOCK_WAIT_S
+        while True:
+            fd = _open_lock(self.out / LOCK_NAME)
+            if fd is not None:
+                self.fd = fd
+                return self
+            if time.monotonic() > deadline:
+                raise DataError(
+                    f"{self.out / LOCK_NAME} has been locked by another `ucope generate` for {_LOCK_WAIT_S:.0f} s; "
+                    "is one stopped (Ctrl-Z)? Resume or end it, then run again"
+                )
+            time.sleep(0.05)
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
+        return False
+
+
+def _run_info(path: Path) -> tuple[range | None, str]:
+    """The shard range and a description of the run whose claim is ``path`` (``None``: unreadable)."""
+    try:
+        d = read_json(path)
+        a, b = (int(v) for v in d["shards"])
+        return range(a, b), f"pid {int(d['pid'])} on {d['host']}, shards {a}:{b}, started {d['started']}"
+    except (DataError, KeyError, TypeError, ValueError):
+        return None, f"see {path}"
+
+
+def _claim_shards(out: Path, cfg: GenerateConfig, shards: range) -> _RunLock:
+    """Under the folder's start lock: check or create ``meta.json``, check the other live runs' shard
+    ranges against ``shards`` (an overlap is refused), remove the claims of runs that ended without
+    releasing them, and register this run's claim (a locked file ``.generate-run-HOST-PID.json``)."""
+    import platform
+    import time
+
+    host = "".join(c if c.isalnum() or c in "-_." else "_" for c in platform.node() or "host")
+    with _folder_lock(out):
+        meta_path = out / "meta.json"
+        if not meta_path.exists() and any(out.glob("shard_*.npz")):
+            raise DataError(
+                f"{out} holds shards but no meta.json: it is not a data set this command can resume (its settings are "
+                "unknown); remove the shards or use another --out folder"
+            )
+        if meta_path.exists():
+            old = read_json(meta_path)
+            if not isinstance(old, dict):
+                raise DataError(f"{meta_path} is not a ucope data set description")
+            new = json.loads(json.dumps(cfg.settings()))  # tuples -> lists, as stored
+            diff = sorted(k for k in new if old.get(k) != new[k])
+            if diff:
+                raise DataError(
+                    f"{out} already holds a data set made with other settings ({', '.join(diff)} differ); "
+                    "use another --out folder, or the same settings to resume"
+                )
+        for other in sorted(out.glob(".generate-run-*.json")):
+            fd = _open_lock(other)
+            if fd is not None:  # its run ended without releasing it (killed): the kernel let its lock go
+                other.unlink(missing_ok=True)
+                os.close(fd)
+                continue
+            theirs, who = _run_info(other)
+            if theirs is None or (theirs.start < shards.stop and shards.start < theirs.stop):
+                raise DataError(
+                    f"another `ucope generate` is writing into {out} ({who}); wait for it to finish, "
+                    "or give this run --shards that do not overlap its"
+                )
+        if not meta_path.exists():
+            atomic_write_json(meta_path, cfg.meta())
+        path = out / f".generate-run-{host}-{os.getpid()}.json"
+        fd = _open_lock(path)
+        if fd is None:  # pragma: no cover - only this process makes this name
+            raise DataError(f"{path} is locked by another process")
+        info = {
+            "pid": os.getpid(),
+            "host": platform.node(),
+            "shards": [shards.start, shards.stop],
+            "started": time.strftime("%Y-%m-%d %H:%M:%S %z"),
+        }
+        os.ftruncate(fd, 0)
+        os.write(fd, (json.dumps(info) + "\n").encode())
+        return _RunLock(out, fd, path)
+
+
+def _prepare_out(out: Path, cfg: GenerateConfig, shards: range) -> _RunLock:
     try:
         out.mkdir(parents=True, exist_ok=True)
         if cfg.images:
@@ -286,25 +457,7 @@ def _prepare_out(out: Path, cfg: GenerateConfig) -> None:
         probe.unlink()
     except OSError as e:
         raise DataError(f"cannot write to output folder {out}: {e.strerror or e}") from None
-    meta_path = out / "meta.json"
-    if not meta_path.exists() and any(out.glob("shard_*.npz")):
-        raise DataError(
-            f"{out} holds shards but no meta.json: it is not a data set this command can resume (its settings are "
-            "unknown); remove the shards or use another --out folder"
-        )
-    if meta_path.exists():
-        old = read_json(meta_path)
-        if not isinstance(old, dict):
-            raise DataError(f"{meta_path} is not a ucope data set description")
-        new = json.loads(json.dumps(cfg.settings()))  # tuples -> lists, as stored
-        diff = sorted(k for k in new if old.get(k) != new[k])
-        if diff:
-            raise DataError(
-                f"{out} already holds a data set made with other settings ({', '.join(diff)} differ); "
-                "use another --out folder, or the same settings to resume"
-            )
-    else:
-        atomic_write_json(meta_path, cfg.meta())
+    return _claim_shards(out, cfg, shards)
 
 
 def _progress(total: int, desc: str, enabled: bool):
@@ -329,11 +482,24 @@ def generate_dataset(
     Args:
         cfg: what to generate.
         workers: processes; the files do not depend on it.
-        shards: the shard indices to make on this machine (default: all). Shards already on disk are
-            skipped, so an interrupted run resumes where it stopped.
+        shards: the shard indices to make on this machine (default: all; an empty range is refused).
+            Shards already on disk are skipped, so an interrupted run resumes where it stopped.
 
     Returns:
         The output folder.
+
+    Raises:
+        InputError: a bad setting, worker count or shard range.
+        DataError: the folder cannot be written; it holds a data set of other settings (``meta.json``),
+            or shards without ``meta.json``; another live run into it claims overlapping shards.
+
+    Concurrent runs: a run claims its shard range in the folder (a file ``.generate-run-HOST-PID.json``
+    holding a kernel lock, registered under the folder's start lock :data:`LOCK_NAME`), so a second run
+    whose range overlaps a live run's, or whose settings differ from ``meta.json``, is refused before it
+    writes anything; runs of the same settings and disjoint ``shards`` (one machine each) may share a
+    folder. A killed run's kernel locks go with its process, so the next run finds its claim unlocked and
+    removes it (no stale lock to clear by hand); on a network file system the locks need the server's
+    lock support (NFSv4), and those of a crashed machine last until its lease runs out.
     """
     cfg.validate()
     if not isinstance(workers, int | np.integer) or workers < 1:
@@ -341,13 +507,16 @@ def generate_dataset(
     out = Path(out)
     all_shards = range(cfg.num_shards)
     shards = all_shards if shards is None else shards
-    if len(shards) and (shards.start < 0 or shards.stop > cfg.num_shards):
+    if not isinstance(shards, range) or len(shards) == 0 or shards.step != 1:
+        raise InputError(f"shards must be a non-empty range of consecutive shard indices, got {shards!r}")
+    if shards.start < 0 or shards.stop > cfg.num_shards:
         raise InputError(f"shard range {shards.start}:{shards.stop} is outside 0:{cfg.num_shards}")
-    _prepare_out(out, cfg)
-    todo = [s for s in shards if not (out / shard_name(s)).exists()]
-    n_todo = sum(min(cfg.num, (s + 1) * cfg.shard_size) - s * cfg.shard_size for s in todo)
-    bar = _progress(n_todo, f"{cfg.category}/{cfg.split}", progress)
+    claim = _prepare_out(out, cfg, shards)
+    bar = None
     try:
+        todo = [s for s in shards if not (out / shard_name(s)).exists()]
+        n_todo = sum(min(cfg.num, (s + 1) * cfg.shard_size) - s * cfg.shard_size for s in todo)
+        bar = _progress(n_todo, f"{cfg.category}/{cfg.split}", progress)
         if workers == 1 or len(todo) <= 1:
             for s in todo:
                 n = _generate_shard(cfg, out, s)
@@ -362,9 +531,10 @@ def generate_dataset(
                 for n in pool.imap_unordered(_worker, [(cfg, out, s, parent) for s in todo]):
                     if bar is not None:
                         bar.update(n)
+        if cfg.images and all((out / shard_name(s)).exists() for s in all_shards):
+            merge_bop_parts(out / "images", [out / "images" / ".bop_parts" / f"shard_{s:05d}.json" for s in all_shards])
     finally:
         if bar is not None:
             bar.close()
-    if cfg.images and all((out / shard_name(s)).exists() for s in all_shards):
-        merge_bop_parts(out / "images", [out / "images" / ".bop_parts" / f"shard_{s:05d}.json" for s in all_shards])
+        claim.release()
     return out

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, InputError
+from ..fileio import read_json
 
 __all__ = [
     "POINT_CLOUD_SUFFIXES",
@@ -335,12 +336,7 @@ def read_intrinsics(path: str | Path) -> np.ndarray:
     ``scene_camera.json`` (``{"<image id>": {"cam_K": ...}}``) whose images all share one camera.
     """
     path = Path(path)
-    try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataError(f"{path}: no such file") from None
-    except (OSError, ValueError) as e:
-        raise DataError(f"{path}: not valid JSON ({e})") from None
+    d = read_json(path, "camera intrinsics")
     if isinstance(d, dict) and "camera" in d and isinstance(d["camera"], dict):
         d = d["camera"]
     if isinstance(d, dict) and d and all(isinstance(v, dict) and "cam_K" in v for v in d.values()):  # BOP scene_camera

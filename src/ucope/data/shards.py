@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError
-from ..fileio import atomic_write_bytes
+from ..fileio import atomic_write_bytes, open_regular
 from ..versions import DATA_FORMAT_VERSION as FORMAT_VERSION
 
 __all__ = ["FORMAT_VERSION", "write_shard", "read_shard", "shard_name"]
@@ -70,16 +70,18 @@ def read_shard(path: str | os.PathLike, num_parts: int | None = None, category: 
         num_parts, category: what ``meta.json`` says (checked when given).
 
     Raises:
-        DataError: naming the file: truncated or corrupt, another format version, inconsistent
-            offsets or array lengths, labels outside ``[0, num_parts)``, non-finite points, poses or
-            sizes, samples of another category.
+        DataError: naming the file: missing, not a regular file (a FIFO...), truncated or corrupt,
+            another format version, inconsistent offsets or array lengths, labels outside
+            ``[0, num_parts)``, non-finite points, poses or sizes, samples of another category.
     """
     path = Path(path)
+    if not path.exists():
+        raise DataError(f"shard {path} does not exist (was the data set generated completely?)")
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with open_regular(path, "shard") as f, np.load(f, allow_pickle=False) as z:  # a FIFO is refused, not waited on
             data = {k: z[k] for k in z.files}
-    except FileNotFoundError:
-        raise DataError(f"shard {path} does not exist (was the data set generated completely?)") from None
+    except DataError:
+        raise
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, zipfile.LargeZipFile) as e:
         raise DataError(
             f"shard {path} is truncated or corrupt ({type(e).__name__}: {e}); delete it and re-run `ucope generate` to rebuild it"

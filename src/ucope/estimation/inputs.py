@@ -3,7 +3,8 @@
 * :func:`prepare_points`: validate a cloud (``(N, 3)`` or organised ``(H, W, 3)``, numpy / torch /
   nested sequences, optional normals), convert its units, drop rows without a measurement, check that it
   looks like one object in the camera frame, put it in a canonical order and subsample it;
-* :func:`rgbd_points`: back-project a depth image (with a mask and / or a box) into the object's cloud;
+* :func:`rgbd_points`: back-project a depth image (with a mask and / or a box) into the object's cloud
+  (:func:`parse_intrinsics` reads the camera in the forms users hold it);
 * :func:`roll_to_up`: the turn about the optical axis that brings a known up direction to image up;
 * :func:`label_points`: carry the labels of the network's points over to every input point.
 
@@ -18,6 +19,7 @@ gives the same result.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,7 +32,9 @@ from ..vocab import MIN_POINTS
 __all__ = [
     "roll_to_up",
     "MIN_POINTS",
+    "MAX_COORDINATE_M",
     "NORMAL_K",
+    "parse_intrinsics",
     "UNITS",
     "PreparedCloud",
     "prepare_points",
@@ -44,6 +48,10 @@ NORMAL_K = 16
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 """Length units a cloud may come in, and their size in metres."""
+
+MAX_COORDINATE_M = 1e6
+"""Coordinates farther than this from the camera (metres, after the unit conversion) are no measurement
+of an object a camera sees: such rows are dropped like NaN rows (a corrupt file or wrong units)."""
 
 _EXACT_LABELS = 1 << 18  # clouds up to this many points are labelled by an exact nearest-neighbour query
 
@@ -115,11 +123,18 @@ def roll_to_up(up) -> np.ndarray:
     """``(3, 3)`` rotation about the camera's optical axis (z) that turns the world's up direction ``up``
     (camera frame, any length) so that its image-plane part points to image up (``-y``, OpenCV axes):
     applied to a cloud (``p @ R.T``), it takes out the camera's roll, as an upright camera would have
-    seen the scene. Raises :class:`InputError` for a non-finite or zero ``up``, or one within 10 degrees
-    of the optical axis (a camera looking straight down or up has no roll to take out)."""
-    u = np.asarray(up, dtype=np.float64).reshape(-1)
-    if u.shape != (3,) or not np.all(np.isfinite(u)) or np.linalg.norm(u) < 1e-12:
-        raise InputError(f"up must be a finite, non-zero 3-vector in the camera frame, got {np.asarray(up).tolist()}")
+    seen the scene. Only the direction counts (``(1e308, 1e308, 0)`` is ``(1, 1, 0)``). Raises
+    :class:`InputError` for a non-finite or zero ``up``, or one within 10 degrees of the optical axis (a
+    camera looking straight down or up has no roll to take out)."""
+    try:
+        u = np.asarray(up, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise InputError(f"up must be a finite, non-zero 3-vector in the camera frame, got {up!r}") from None
+    if u.shape != (3,) or not np.all(np.isfinite(u)) or not np.any(u != 0):
+        raise InputError(f"up must be a finite, non-zero 3-vector in the camera frame, got {u.tolist()}")
+    u = u / np.max(
+        np.abs(u)
+    )  # first to the largest component: the norm of huge or tiny components neither overflows nor underflows
     u = u / np.linalg.norm(u)
     if np.hypot(u[0], u[1]) < np.sin(np.radians(10.0)):
         raise InputError(
@@ -160,8 +175,9 @@ def prepare_points(
 
     Raises:
         InputError: a wrong shape or dtype, ragged rows, normals of another shape, fewer than
-            :data:`MIN_POINTS` usable points, coincident or collinear points, most points behind the
-            camera (z <= 0: not the camera frame), an unknown unit. Each message names the problem.
+            :data:`MIN_POINTS` usable points (rows with NaN / Inf or farther than :data:`MAX_COORDINATE_M`
+            are not usable), coincident or collinear points, most points behind the camera (z <= 0: not
+            the camera frame), an unknown unit. Each message names the problem.
     """
     if units not in UNITS:
         raise InputError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
@@ -181,22 +197,33 @@ def prepare_points(
         if nrm.shape[:-1] != shape or nrm.shape[-1:] != (3,):
             raise InputError(f"normals must have the points' shape {(*shape, 3)}, got {nrm.shape}")
         nrm = nrm.reshape(-1, 3)
+    with np.errstate(invalid="ignore"):
+        far = (np.abs(pts) > MAX_COORDINATE_M).any(axis=1) & np.isfinite(pts).all(axis=1)  # before a turn can overflow
+    n_far = int(np.count_nonzero(far))
+    top = float(np.max(np.abs(pts[far]))) if n_far else 0.0
     if rotation is not None:
         R = np.asarray(rotation, dtype=np.float64)
-        pts = pts @ R.T
-        nrm = None if nrm is None else nrm @ R.T
-    finite = np.isfinite(pts).all(axis=1)
+        with np.errstate(over="ignore", invalid="ignore"):  # rows that overflow are the far ones, dropped below
+            pts = pts @ R.T
+            nrm = None if nrm is None else nrm @ R.T
+    finite = np.isfinite(pts).all(axis=1) & ~far
     if nrm is not None:
-        finite &= np.isfinite(nrm).all(axis=1) & (np.abs(nrm).sum(axis=1) > 0)
+        finite &= np.isfinite(nrm).all(axis=1) & (nrm != 0).any(axis=1)
     n_ok = int(finite.sum())
     notes: list[str] = []
+    far_text = ""
+    if n_far:
+        far_text = f"{n_far} have a coordinate beyond {MAX_COORDINATE_M:.0e} m, up to {top:.3g} m: wrong units or a corrupt file?"
     if n_ok < MIN_POINTS:
-        raise InputError(
-            f"only {n_ok} of {n_in} points are usable (NaN / Inf coordinates or zero normals dropped); "
-            f"at least {MIN_POINTS} are needed"
+        why = far_text if n_far and n_ok + n_far >= MIN_POINTS else "NaN / Inf coordinates or zero normals dropped"
+        raise InputError(f"only {n_ok} of {n_in} points are usable ({why}); at least {MIN_POINTS} are needed")
+    if n_far:
+        notes.append(
+            f"dropped {n_far} of {n_in} points with a coordinate beyond {MAX_COORDINATE_M:.0e} m (up to {top:.3g} m): "
+            "wrong units or a corrupt file?"
         )
-    if n_ok < n_in and len(shape) == 1:  # an organised cloud marks missing pixels with NaN: nothing to warn about
-        notes.append(f"dropped {n_in - n_ok} of {n_in} points with NaN / Inf coordinates or normals")
+    if n_ok + n_far < n_in and len(shape) == 1:  # an organised cloud marks missing pixels with NaN: nothing to warn about
+        notes.append(f"dropped {n_in - n_ok - n_far} of {n_in} points with NaN / Inf coordinates or normals")
     kept = np.flatnonzero(finite)
     sub = kept[canonical_subset(pts[kept], int(max_points), seed, None if nrm is None else nrm[kept])]
     p = pts[sub]
@@ -219,7 +246,8 @@ def prepare_points(
         notes.append(f"the points lie in one plane (spreads {ev[0]:.3g} / {ev[1]:.3g} / {ev[2]:.2g} m)")
     n = None
     if nrm is not None:
-        n = nrm[sub] / np.linalg.norm(nrm[sub], axis=1, keepdims=True)
+        n = nrm[sub] / np.abs(nrm[sub]).max(axis=1, keepdims=True)  # no overflow of the norm of huge normals
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
         n = np.where((n * p).sum(axis=1, keepdims=True) > 0, -n, n)  # face the camera (at the origin)
         n = n.astype(np.float32)
     elif estimate:
@@ -276,13 +304,63 @@ def label_points(raw: np.ndarray, finite: np.ndarray, ref: np.ndarray, ref_label
     return out
 
 
+_INTRINSICS_FORMS = "(fx, fy, cx, cy), a 3x3 matrix K, or a dict with fx, fy, cx, cy or K / cam_K"
+
+
+def parse_intrinsics(intrinsics) -> np.ndarray:
+    """Pinhole intrinsics ``(fx, fy, cx, cy)`` (pixels, float64) from the forms users hold them in.
+
+    Accepted: a sequence / array ``(fx, fy, cx, cy)``; a ``(3, 3)`` matrix K or its 9 values row by row
+    (BOP's ``cam_K``); a mapping with keys ``fx, fy, cx, cy`` or ``K`` / ``cam_K`` (also nested under
+    ``"camera"``); an object with attributes ``fx, fy, cx, cy`` (:class:`ucope.render.camera.PinholeCamera`).
+
+    Raises :class:`InputError` naming the accepted forms: another form, non-numeric or non-finite values,
+    focal lengths that are not positive."""
+    src, vals = intrinsics, None
+    if isinstance(src, torch.Tensor):
+        src = src.detach().cpu().numpy()
+    if isinstance(src, Mapping) and isinstance(src.get("camera"), Mapping):
+        src = src["camera"]
+    try:
+        if isinstance(src, Mapping):
+            if all(k in src for k in ("fx", "fy", "cx", "cy")):
+                vals = [src[k] for k in ("fx", "fy", "cx", "cy")]
+            elif "K" in src or "cam_K" in src:
+                vals = src["K"] if "K" in src else src["cam_K"]
+        elif all(hasattr(src, k) for k in ("fx", "fy", "cx", "cy")) and not isinstance(src, np.ndarray):
+            vals = [getattr(src, k) for k in ("fx", "fy", "cx", "cy")]
+        else:
+            vals = src
+        if vals is None or isinstance(vals, str | bytes):
+            raise TypeError
+        K = np.asarray(vals, dtype=np.float64)
+    except (TypeError, ValueError):
+        unknown_keys = isinstance(src, Mapping) and vals is None
+        got = f"a dict with keys {sorted(map(str, src))}" if unknown_keys else _short(intrinsics)
+        raise InputError(f"intrinsics must be {_INTRINSICS_FORMS}, got {got}") from None
+    if K.shape in ((3, 3), (9,)):
+        K = K.reshape(3, 3)
+        K = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+    if K.shape != (4,):
+        raise InputError(f"intrinsics must be {_INTRINSICS_FORMS}, got an array of shape {K.shape}")
+    if not np.all(np.isfinite(K)) or K[0] <= 0 or K[1] <= 0:
+        raise InputError(f"intrinsics must be finite with positive focal lengths, got (fx, fy, cx, cy) = {K.tolist()}")
+    return K
+
+
+def _short(x, limit: int = 80) -> str:
+    text = repr(x)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 1000.0, mask_label=None) -> np.ndarray:
     """The object's points (camera frame, metres) from a depth image, back-projected and cleaned.
 
     Args:
         depth: ``(H, W)`` depth (z, not range); ``depth / depth_scale`` is metres (default 1000:
             millimetres, as 16-bit PNGs hold them); 0, NaN or Inf = no measurement.
-        intrinsics: ``(fx, fy, cx, cy)`` in pixels or a ``(3, 3)`` matrix K.
+        intrinsics: pixels, in any form :func:`parse_intrinsics` reads: ``(fx, fy, cx, cy)``, a ``(3, 3)``
+            matrix K, or a dict ``{"fx", "fy", "cx", "cy"}`` / ``{"K": ...}``.
         mask: optional ``(H, W)`` object mask: boolean / 0-1, or a label image with ``mask_label``
             (one value or several) selecting the object's values.
         box: optional ``(x_min, y_min, x_max, y_max)`` pixel box (columns, rows; max exclusive) to
@@ -309,16 +387,15 @@ def rgbd_points(depth, intrinsics, mask=None, box=None, depth_scale: float = 100
             "the depth image has 8-bit values, which cannot hold depth in millimetres (is it a visualisation "
             "or a mask?); give the 16-bit depth (millimetres) or float depth in metres with depth_scale=1"
         )
-    if not (np.isfinite(depth_scale) and depth_scale > 0):
-        raise InputError(f"depth_scale must be positive, got {depth_scale}")
+    try:
+        scale_ok = bool(np.isfinite(float(depth_scale)) and float(depth_scale) > 0)
+    except (TypeError, ValueError):
+        scale_ok = False
+    if not scale_ok:
+        raise InputError(f"depth_scale must be a finite positive number, got {depth_scale!r}")
+    depth_scale = float(depth_scale)
     H, W = d.shape
-    K = np.asarray(intrinsics, dtype=np.float64)
-    if K.shape == (3, 3):
-        K = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
-    if K.shape != (4,) or not np.all(np.isfinite(K)) or K[0] <= 0 or K[1] <= 0:
-        raise InputError(
-            f"intrinsics must be (fx, fy, cx, cy) or a 3x3 K with positive focal lengths, got {np.asarray(intrinsics).tolist()}"
-        )
+    K = parse_intrinsics(intrinsics)
     valid = np.ones((H, W), bool)
     if mask is not None:
         m = np.asarray(mask)

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError
-from ..fileio import atomic_write_json, read_json
+from ..fileio import atomic_write_json, parse_json, read_json
 from ..versions import CONVENTIONS_VERSION, RESULT_FORMAT, __version__
 
 __all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult", "result_schema", "validate", "SCHEMA_FILE"]
@@ -511,10 +511,7 @@ class PoseResult:
 
     @classmethod
     def from_json(cls, text: str) -> PoseResult:
-        try:
-            return cls.from_dict(json.loads(text))
-        except json.JSONDecodeError as e:
-            raise DataError(f"not valid JSON ({e})") from None
+        return cls.from_dict(parse_json(text, "the result text"))
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the JSON form to ``path`` atomically."""

@@ -10,7 +10,8 @@ side panel lists the parts with their scores (and errors when known); the standa
 same list as a legend over the view. The view opens looking along the camera's line of sight at the
 first scene, from where its objects fill most of the view.
 
-* :func:`show`: a live viewer at ``http://HOST:PORT`` (``ucope predict ... --view``), until Ctrl-C;
+* :func:`show`: a live viewer at ``http://HOST:PORT`` (``ucope predict ... --view``), until Ctrl-C
+  (:func:`check_address` checks the address first);
 * :func:`write_html`: the same scene as one self-contained HTML file that opens in any browser
   without Python or a network (``--view-html FILE``);
 * :func:`build_scene`: add the scenes to a viser server of your own.
@@ -31,6 +32,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -41,7 +43,7 @@ from ..fileio import atomic_write_text
 from ..geometry.boxes import BOX_EDGES, box_corners
 from .draw import AXIS_COLOURS, LOW_SCORE, Scene, legend_lines, part_colours, warning_lines
 
-__all__ = ["viser_module", "build_scene", "show", "write_html", "legend_html"]
+__all__ = ["viser_module", "build_scene", "show", "write_html", "legend_html", "check_address"]
 
 VIEW_FOV_DEG = 50.0
 """Vertical field of view of the opening camera."""
@@ -240,6 +242,58 @@ def legend_html(scenes: Sequence[Scene]) -> str:
     )
 
 
+def check_address(host: str, port: int, names: tuple[str, str] = ("host", "port")) -> list[str]:
+    """Check that a viewer can listen on ``host:port``, before any server thread starts (a server thread
+    that fails cannot report it, and viser retries an address it cannot bind forever).
+
+    ``names`` name the two in the messages (the CLI passes ``("--view-host", "--view-port")``).
+
+    Returns warnings: the address reaches beyond this machine (the viewer has no authentication), or the
+    port is taken (viser then serves on the next free one, and says which).
+
+    Raises :class:`InputError`: a port that is not an integer in 0-65535; a host that does not resolve,
+    or that is no address of this machine."""
+    import ipaddress
+    import socket
+
+    if isinstance(port, bool) or not isinstance(port, int | np.integer) or not 0 <= int(port) <= 65535:
+        raise InputError(f"{names[1]} must be an integer from 0 to 65535 (0: any free port), got {port!r}")
+    if not isinstance(host, str):
+        raise InputError(f"{names[0]} must be a host name or an IP address, got {host!r}")
+    try:
+        infos = socket.getaddrinfo(host or None, 0, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except (OSError, UnicodeError) as e:
+        raise InputError(f"{names[0]} {host!r} does not resolve to an address ({e})") from None
+    addrs = list(dict.fromkeys((family, sockaddr) for family, _, _, _, sockaddr in infos))
+    bindable, taken = [], None
+    for family, sockaddr in addrs:
+        for p in (0, int(port)) if port else (0,):
+            with socket.socket(family, socket.SOCK_STREAM) as sock:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server will
+                try:
+                    sock.bind((sockaddr[0], p, *sockaddr[2:]))
+                except OSError as e:
+                    if p != 0:
+                        taken = taken or e.strerror or str(e)
+                    continue
+            if p == 0:
+                bindable.append(sockaddr[0])
+    if not bindable:
+        raise InputError(
+            f"{names[0]} {host!r} ({', '.join(a[1][0] for a in addrs)}) is no address of this machine: the viewer cannot listen "
+            "on it (127.0.0.1: this machine only; 0.0.0.0: every network interface)"
+        )
+    notes = []
+    if taken:
+        notes.append(f"port {port} cannot be used on {host} ({taken}): the viewer serves on the next free port")
+    if not all(ipaddress.ip_address(a.split("%")[0]).is_loopback for a in bindable):
+        notes.append(
+            f"the viewer at {host}:{port} is open to every machine that can reach this one, without authentication "
+            "(use 127.0.0.1 and an SSH tunnel to keep it private)"
+        )
+    return notes
+
+
 def _server(host: str, port: int, quiet: bool):
     viser = viser_module()
     if quiet:
@@ -252,7 +306,10 @@ def show(scenes: Sequence[Scene], host: str = "127.0.0.1", port: int = 8080, blo
     """Serve the scenes at ``http://host:port`` (viser) and, with ``block``, wait until Ctrl-C.
 
     Returns the viser server (call ``.stop()`` on it when ``block=False``). ``port=0`` takes a free one
-    (``server.get_port()``)."""
+    (``server.get_port()``). The address is checked first (:func:`check_address`: a bad port or host
+    raises :class:`InputError`; its warnings are printed to stderr)."""
+    for note in check_address(host, port):
+        print(f"warning: {note}", file=sys.stderr, flush=True)
     server = _server(host, port, quiet=False)
     try:
         build_scene(server, scenes)

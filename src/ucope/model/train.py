@@ -48,7 +48,7 @@ from torch.utils.data import DataLoader, DistributedSampler
 
 from ..data.augment import AugmentConfig
 from ..errors import DataError, InputError, UcopeError
-from ..fileio import atomic_write_json
+from ..fileio import atomic_write_json, parse_json
 from ..priors import measure_priors
 from ..versions import CONVENTIONS_VERSION, GENERATOR_VERSION, __version__
 from .batch import TrainingItems, batch_to, collate_items
@@ -377,10 +377,11 @@ class _MetricsLog:
             keep = []
             for line in self.path.read_text().splitlines():
                 try:
-                    if json.loads(line).get("step", 0) <= resume_step:
-                        keep.append(line)
-                except json.JSONDecodeError:  # a line cut by a kill
+                    row = parse_json(line, str(self.path))
+                except DataError:  # a line cut by a kill
                     continue
+                if isinstance(row, dict) and row.get("step", 0) <= resume_step:
+                    keep.append(line)
             self.path.write_text("".join(x + "\n" for x in keep))
 
     def write(self, row: dict) -> None:

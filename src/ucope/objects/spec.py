@@ -24,7 +24,6 @@ cause).
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 import warnings
@@ -35,7 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import DataError, InputError
+from ..fileio import read_json
 from ..vocab import SYMMETRIES
 from .articulation import ArticulatedObject
 from .importers import MODEL_SUFFIXES, JointMapping, load_model, model_to_object, warn_size
@@ -149,11 +149,9 @@ def read_spec(path: str | os.PathLike) -> dict:
     an unreadable or malformed file raises :class:`InputError` naming it."""
     path = Path(path)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"category spec {path} does not exist") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise InputError(f"category spec {path} is not readable JSON ({e})") from None
+        doc = read_json(path, "category spec")
+    except DataError as e:
+        raise InputError(str(e)) from None
     if not isinstance(doc, dict):
         raise InputError(f"category spec {path} must be a JSON object")
     base = Path(doc.get("base_dir", "."))
