@@ -557,13 +557,6 @@ def _expand_entry(k: int, it: Mapping, base: Path, roots: list[Path] | None) -> 
     raise _fail(field, f"{p} does not exist")
 
 
-def _expand_files(doc: Mapping) -> list[tuple[Path, dict]]:
-    """Every instance file with its entry (a folder entry gives the files its ``pattern`` matches,
-    sorted by their path in the folder, less the collision meshes its ``exclude`` matches)."""
-    base, roots = Path(doc["base_dir"]), _roots(doc)
-    return [(f, it) for k, it in enumerate(doc["instances"]) for f in _expand_entry(k, it, base, roots)[0]]
-
-
 def family_names(files: list[Path], base: Path) -> list[str]:
     """Instance family names ``"NNN_<name>"``: ``<name>`` is the file's stem, with as many of its folders
     (relative to ``base`` when inside it) before it, joined by ``-``, as it takes to tell different files
