@@ -102,9 +102,15 @@ def cmd_categories(args: argparse.Namespace) -> int:
     from ..objects.categories import list_categories
 
     if args.spec is not None:
+        import warnings
+
         from ..objects.spec import load_spec
 
-        own = load_spec(args.spec)
+        with warnings.catch_warnings(record=True) as caught:  # one line each (a size off, an axis turned round)
+            warnings.simplefilter("always")
+            own = load_spec(args.spec)
+        for w in caught:
+            print(f"warning: {w.message}", file=sys.stderr)
         print(_spec_summary(own))
         if not args.no_picture:
             out = Path(args.picture or f"conventions_{own.name}.png")
