@@ -84,3 +84,53 @@ def test_generate_train_predict_eval_on_a_spec_without_its_files(tmp_path, capsy
     assert main(["eval", "--model", str(run), str(val_dir), "--out", str(tmp_path / "eval.json"), "--quiet"]) == 0
     report = json.loads((tmp_path / "eval.json").read_text())
     assert report["category"] == "toy_box" and len(report["samples"]) == 4
+
+
+def test_categories_spec_draws_every_instance_and_prints_the_files_limits(tmp_path, capsys):
+    """Issue #48 defect 5: every instance in one picture (a grid), and per instance each joint's limits in
+    the file and as category states, beside the range sampled (the doors: one turned round, states negated)."""
+    from own_objects_support import door_spec, write_door_pair
+
+    write_door_pair(tmp_path)
+    spec = write_spec(tmp_path / "doors.json", door_spec(tmp_path))
+    png = tmp_path / "doors.png"
+    args = ["categories", "--spec", str(spec)] + (
+        ["--picture", str(png)] if importlib.util.find_spec("matplotlib") else ["--no-picture"]
+    )
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert err.startswith("warning: category spec: 001_right-door (right/door.urdf): the axis of category joint(s) [0] points")
+    assert "instance 000_left-door: left/door.urdf" in out and "instance 001_right-door: right/door.urdf" in out
+    assert "joint 0 'hinge': file limits [0, 2] rad = states [0, 2] rad; sampled [0, 1.571] rad" in out
+    assert "joint 0 'hinge': file limits [0, 2] rad = states [-2, 0] rad; sampled [-1.571, 0] rad; axis turned round" in out
+    if importlib.util.find_spec("matplotlib"):
+        import matplotlib.image
+
+        h, w = matplotlib.image.imread(str(png)).shape[:2]
+        assert w > 1.8 * h and f"wrote {png} (2 instance(s))" in out  # two panels side by side
+
+
+def test_train_without_val_data_and_without_the_sources_leaves_no_run_folder(tmp_path, capsys):
+    """Issue #48 defect 8: the default validation views need the spec's files; with them gone the error says
+    so (and how to do without), before the run folder is made."""
+    src = tmp_path / "src"
+    write_two_link_urdf(src)
+    spec = write_spec(src / "spec.json", two_link_spec("two_link.urdf"))
+    data = tmp_path / "train"
+    common = ["--spec", str(spec), "--num", "8", "--views-per-instance", "4", "--max-points", "256", "--quiet"]
+    assert main(["generate", *common, "--out", str(data)]) == 0
+    shutil.rmtree(src)
+    from ucope.objects import categories
+
+    categories._registry().pop("toy_box", None)  # a new process: the spec is read from the data's meta.json
+    categories._DOCS.pop("toy_box", None)
+    run = tmp_path / "runs" / "toy"
+    capsys.readouterr()
+    args = ["train", "--category", "toy_box", "--data", str(data), "--out", str(run), "--steps", "2", "--batch-size", "2"]
+    assert main([*args, "--threads", "1", "--device", "cpu", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "the validation views of 'toy_box' are generated from its spec's files" in err and "--val-data" in err
+    assert "two_link.urdf" in err and not run.exists() and not run.parent.exists()
+    (tmp_path / "afile").write_text("x")
+    assert main([*args[:5], "--out", str(tmp_path / "afile"), *args[7:], "--device", "cpu", "--quiet"]) == 2
+    assert "is a file, not a folder" in capsys.readouterr().err

@@ -153,10 +153,12 @@ def test_joint_errors_dicts():
     json.dumps([rev, pri], allow_nan=False)
 
 
-def test_joint_state_error_is_measured_about_the_axis_sign_of_the_axis_error():
+def test_joint_axis_error_is_sign_aware_because_the_state_is():
     """A lid opened by 40 degrees about u: a prediction with perfect part poses whose axis came out as -u reads
-    the state about -u, -40 degrees.  The axis error ignores the sign (0 degrees), so the state error must too:
-    0, not 80 degrees.  The same for a drawer pulled 0.2 m along u, read as -0.2 m along -u."""
+    the state about -u, -40 degrees: the same motion in the other convention, which a user reading "lid at -40
+    degrees" gets wrong. The axis error says so (180 degrees, flipped) and the state is compared as it is (80
+    degrees off); the line angle (sign aside) stays 0.  The same for a drawer pulled 0.2 m along u, read as
+    -0.2 m along -u."""
     from ucope.geometry.kinematics import joint_state_from_poses
 
     u, q = np.array([0.6, 0.0, 0.8]), math.radians(40.0)
@@ -165,15 +167,23 @@ def test_joint_state_error_is_measured_about_the_axis_sign_of_the_axis_error():
     q_pred = joint_state_from_poses(parent, child, -u, "revolute")
     assert q_pred == pytest.approx(-q)
     rev = joint_errors(-u, [0, 0, 1], q_pred, u, [0, 0, 1], q, "revolute")
-    assert rev["axis_deg"] == pytest.approx(0.0, abs=1e-9) and rev["axis_flipped"] is True
-    assert rev["state_error"] == pytest.approx(0.0, abs=1e-9)
+    assert rev["axis_deg"] == pytest.approx(180.0) and rev["axis_flipped"] is True
+    assert rev["axis_line_deg"] == pytest.approx(0.0, abs=1e-9) and rev["pivot_m"] == pytest.approx(0.0, abs=1e-12)
+    assert rev["state_error"] == pytest.approx(80.0)
     pri = joint_errors(-u, None, -0.2, u, None, 0.2, "prismatic")
-    assert pri["state_error"] == pytest.approx(0.0, abs=1e-12) and pri["axis_flipped"] is True
-    # a flipped axis does not hide a wrong state: -30 degrees about -u is 30 about u, 10 degrees off
-    assert joint_errors(-u, [0, 0, 1], -math.radians(30), u, [0, 0, 1], q, 0)["state_error"] == pytest.approx(10.0)
-    # nearly perpendicular but on the far side still counts as flipped (the axis error's min(theta, 180 - theta))
+    assert pri["state_error"] == pytest.approx(0.4) and pri["axis_flipped"] is True and pri["axis_deg"] == pytest.approx(180.0)
+    # the right convention: no error at all
+    same = joint_errors(u, [0, 0, 1], q, u, [0, 0, 1], q, "revolute")
+    assert same["axis_deg"] == pytest.approx(0.0, abs=1e-6) and same["state_error"] == pytest.approx(0.0, abs=1e-9)
+    # nearly perpendicular on the far side: 95 degrees signed, 85 as lines
     tilted = rotation_about_axis(Y, math.radians(95.0)) @ u
-    assert joint_errors(tilted, [0, 0, 1], -q, u, [0, 0, 1], q, 0)["state_error"] == pytest.approx(0.0, abs=1e-9)
+    e = joint_errors(tilted, [0, 0, 1], q, u, [0, 0, 1], q, 0)
+    assert e["axis_deg"] == pytest.approx(95.0) and e["axis_line_deg"] == pytest.approx(85.0) and e["axis_flipped"] is True
+    assert axis_angle_error_deg(-u, u) == pytest.approx(0.0, abs=1e-9)  # the line angle by default
+    assert axis_angle_error_deg(-u, u, signed=True) == pytest.approx(180.0)
+    table = summarize_joints([[rev], [same]])
+    assert table["axis_deg"]["mean"] == [pytest.approx(90.0)] and table["axis_flipped_fraction"] == [0.5]
+    assert table["axis_line_deg"]["median"][0] == pytest.approx(0.0, abs=1e-6)
 
 
 # --------------------------------------------------------------------------------------------------

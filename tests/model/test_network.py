@@ -235,3 +235,109 @@ def test_segmentation_weighting_over_points_is_k_times_the_mean_cross_entropy():
     assert not torch.isclose(balanced, seg)  # a different weighting of the same logits
     with pytest.raises(InputError, match="seg_weighting"):
         tiny_config("drawer", seg_weighting="parts")
+
+
+# ---------------------------------------------------------------- batched heads = per-part computation
+def _per_part_pair_outputs(net: UCOPENet, enc: dict, points, normals, pair_idx) -> dict[str, torch.Tensor]:
+    """The pair encoder as the paper writes it, one part at a time: for part k and pair (i, j),
+    ``[F1 m_k][i], [F1 m_k][j], PPF(i, j), onehot(k)`` -> the first layer (the concatenation's weights),
+    the hidden layers, and part k's own output layer."""
+    from ucope.model.targets import pair_features
+
+    K, H = net.cfg.num_parts, net.cfg.hidden
+    f1, masks = enc["feats"], enc["masks"]
+    W_point = net.pair_point.weight  # (2H, C): [W_a; W_b]
+    W_first = torch.cat([W_point[:H], W_point[H:], net.pair_geo.weight], dim=1)  # (H, 2C + 4 + K)
+    outs = []
+    for b in range(points.shape[0]):
+        per_part = []
+        for k in range(K):
+            f2 = f1[b] * masks[b, :, k : k + 1]  # (N, C): the re-modulated features of part k
+            i, j = pair_idx[b, k, :, 0], pair_idx[b, k, :, 1]
+            ppf = pair_features(points[b, i], points[b, j], normals[b, i], normals[b, j], net.norm_scale)
+            onehot = torch.nn.functional.one_hot(torch.full_like(i, k), K).to(f2.dtype)
+            x = torch.cat([f2[i], f2[j], ppf, onehot], dim=1)
+            hidden = net.pair_mlp(x @ W_first.T + net.pair_geo.bias)
+            per_part.append(hidden @ net.pair_out.weight[k] + net.pair_out.bias[k])  # (M, outputs)
+        outs.append(torch.stack(per_part))
+    y = torch.stack(outs)  # (B, K, M, outputs)
+    start, out = 0, {}
+    for name, n in net.out_sizes.items():
+        out[name] = y[..., start : start + n]
+        start += n
+    out["part_score"] = out["part_score"].squeeze(-1)
+    return out
+
+
+@pytest.mark.parametrize("pairs", [40, 300])  # fewer pairs than points (training's branch) and more (inference's)
+def test_batched_pair_encoder_equals_the_per_part_computation(pairs):
+    """The pair encoder runs every part at once (the first layer once per point, the pairs' rows gathered,
+    one batched output layer); it must equal the per-part loop to 1e-5 on a small random network, on either
+    branch (gathering the pairs' rows when there are fewer pairs than points, weighting every point first
+    otherwise)."""
+    torch.manual_seed(3)
+    cfg = tiny_config("drawer", num_points=256, pairs_per_part=pairs, hidden=16)
+    net = UCOPENet(cfg).eval()
+    b = tiny_batch(cfg, n=2)
+    with torch.no_grad():
+        enc = net.encode(b["points"], b["normals"], b["fps_idx"])
+        got = net.pair_heads(enc, b["points"], b["normals"], b["pair_idx"])
+        want = _per_part_pair_outputs(net, enc, b["points"], b["normals"], b["pair_idx"])
+    assert cfg.num_parts == 4 and b["pair_idx"].shape[2] == pairs
+    for name in net.out_sizes:
+        torch.testing.assert_close(got[name], want[name], rtol=1e-5, atol=1e-5, msg=name)
+
+
+def test_both_pair_encoder_branches_give_the_same_bits():
+    """The training branch (pairs' rows gathered, then weighted) and the inference branch (points weighted,
+    then gathered) do the same float operations in the same order: the same pairs give the same outputs."""
+    torch.manual_seed(4)
+    cfg = tiny_config("drawer", num_points=256, pairs_per_part=40, hidden=16)
+    net = UCOPENet(cfg).eval()
+    b = tiny_batch(cfg, n=2)
+    few = b["pair_idx"]
+    many = torch.cat([few, few[:, :, :1].expand(-1, -1, 300, -1)], dim=2)  # 340 pairs > 256 points
+    with torch.no_grad():
+        enc = net.encode(b["points"], b["normals"], b["fps_idx"])
+        a = net.pair_heads(enc, b["points"], b["normals"], few, return_hidden=True)
+        c = net.pair_heads(enc, b["points"], b["normals"], many, return_hidden=True)
+    torch.testing.assert_close(a["pair_hidden"], c["pair_hidden"][:, :, :40], rtol=1e-6, atol=1e-6)
+
+
+def test_the_loss_of_the_two_hot_bins_equals_the_kl_of_the_materialised_target():
+    from ucope.model.targets import two_hot, two_hot_kl
+
+    g = torch.Generator().manual_seed(0)
+    logits = (3 * torch.randn(2, 3, 50, 32, generator=g)).requires_grad_(True)
+    V = torch.tensor([0.1, 0.2, 0.3]).view(1, 3, 1)
+    x = (torch.rand(2, 3, 50, generator=g) * 2.4 - 1.2) * V  # some beyond the range: the end bins take them
+    ref = torch.nn.functional.kl_div(logits.log_softmax(-1), two_hot(x, -V, V, 32), reduction="none").sum(-1)
+    got = two_hot_kl(logits, x, -V, V)
+    torch.testing.assert_close(got, ref, rtol=1e-5, atol=1e-6)
+    (g_ref,) = torch.autograd.grad(ref.sum(), logits)
+    (g_got,) = torch.autograd.grad(got.sum(), logits)
+    torch.testing.assert_close(g_got, g_ref, rtol=1e-5, atol=1e-6)
+    one = torch.randn(4, 1)  # a single bin: the target is that bin, the divergence 0
+    torch.testing.assert_close(two_hot_kl(one, torch.rand(4), 0.0, 1.0), torch.zeros(4))
+
+
+@pytest.mark.parametrize("model", ["drawer", "laptop"])
+def test_shipped_weights_load_and_the_batched_heads_equal_the_per_part_computation(model):
+    """The state-dict layout is unchanged (the shipped weights load strictly) and their pair encoder gives the
+    per-part computation's outputs on a real cloud (to float32 rounding: 2e-6 of the outputs' range, whose
+    logits reach about 170)."""
+    from ucope.model.checkpoint import find_model, load_model
+
+    net, _ = load_model(find_model(model))
+    net.eval()
+    cat = net.cfg.category
+    items = TrainingItems([make_sample(GenerateConfig(category=cat, split="test", num=1, views_per_instance=1), 0)], net.cfg)
+    b = collate_items([items[0]])
+    pair_idx = b["pair_idx"][:, :, :64]
+    with torch.no_grad():
+        enc = net.encode(b["points"], b["normals"], b["fps_idx"])
+        got = net.pair_heads(enc, b["points"], b["normals"], pair_idx)
+        want = _per_part_pair_outputs(net, enc, b["points"], b["normals"], pair_idx)
+    for name in net.out_sizes:
+        scale = float(want[name].abs().max())
+        assert float((got[name] - want[name]).abs().max()) <= 2e-6 * scale + 1e-6, name

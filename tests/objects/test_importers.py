@@ -9,7 +9,10 @@ import pytest
 import trimesh
 from own_objects_support import (
     write_base_mesh,
+    write_cabinet_mjcf,
+    write_grouped_arm_mjcf,
     write_mesh_folder,
+    write_ros_package,
     write_three_link_urdf,
     write_two_body_mjcf,
     write_two_link_urdf,
@@ -166,10 +169,56 @@ def test_a_missing_extra_is_named(tmp_path, monkeypatch):
 def test_broken_urdf_names_the_file(tmp_path):
     path = tmp_path / "bad.urdf"
     path.write_text("this is not XML")
-    with pytest.raises(InputError, match=r"cannot read URDF file .*bad.urdf"):
+    with pytest.raises(InputError, match=r"URDF file .*bad.urdf is not well-formed XML: syntax error \(line 1, column 1\)"):
         load_model(path)
     path.write_text('<robot name="x"></robot>')
     with pytest.raises(InputError, match=r"URDF file .*bad.urdf has no links"):
+        load_model(path)
+
+
+TWO_LINKS = '<link name="a"/><link name="b"><visual><geometry><box size="1 1 1"/></geometry></visual></link>'
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [
+        (TWO_LINKS + '<joint name="j" type="revolute"><child link="b"/></joint>', r"joint 'j': no <parent link=...>"),
+        (
+            TWO_LINKS + '<joint name="j" type="revolute"><parent link="a"/><child link="c"/></joint>',
+            r"child link 'c' is not a link",
+        ),
+        (
+            TWO_LINKS + '<joint name="j" type="hinge"><parent link="a"/><child link="b"/></joint>',
+            r"joint 'j': type 'hinge' is not",
+        ),
+        (
+            '<link name="a"><visual><origin xyz="0 0"/><geometry><box size="1 1 1"/></geometry></visual></link>',
+            r"link 'a' visual 0: <origin xyz='0 0'> must be 3",
+        ),
+        ('<link name="a"><visual><geometry><mesh/></geometry></visual></link>', r"link 'a' visual 0: <mesh> has no filename"),
+        ('<link name="a"><visual><geometry/></visual></link>', r"link 'a' visual 0: <geometry> must hold one box"),
+        ("<link/>", r"link 0 has no name"),
+        ('<link name="a"/><link name="a"/>', r"link names must be unique, repeated: \['a'\]"),
+        ('<link name="a"></link><link name="b"', r"is not well-formed XML: .*\(line 1, column"),
+    ],
+)
+def test_malformed_urdf_is_refused_naming_file_link_and_element_without_parser_noise(tmp_path, capfd, body, match):
+    """yourdfpy's recovering parser printed stray lines and then raised AttributeError (or read a broken
+    file on); the strict check before it names the file, the link or joint and the element."""
+    path = tmp_path / "arm.urdf"
+    path.write_text(f'<robot name="r">{body}</robot>')
+    with pytest.raises(InputError, match=r"URDF file .*arm.urdf.*" + match):
+        load_model(path)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_missing_urdf_mesh_names_the_urdf_and_the_link(tmp_path):
+    path = write_two_link_urdf(tmp_path)
+    (tmp_path / "toy_pkg" / "meshes" / "base.stl").unlink()
+    with pytest.raises(
+        InputError, match=r"URDF file .*two_link.urdf: link 'base_link': mesh file 'package://toy_pkg/.*not found"
+    ):
         load_model(path)
 
 
@@ -255,3 +304,181 @@ def test_mjcf_body_with_visual_geoms_leaves_out_its_collision_geoms(tmp_path):
     assert len(m.links["a"]) == 1 and len(m.links["b"]) == 1
     np.testing.assert_allclose(m.links["a"][0].extents, [0.2, 0.2, 0.2], atol=1e-9)
     np.testing.assert_allclose(m.links["b"][0].extents, [0.1, 0.1, 0.1], atol=1e-9)
+
+
+# ------------------------------------------------------------------ files in asset-library layouts
+def test_mjcf_with_textures_materials_and_physics_reads_its_visual_geometry(tmp_path):
+    """Menagerie layout: the texture file is not there, the label mesh is flat (no convex hull), collision
+    proxies in group 3 are larger than the meshes, sensors / actuators / keyframes name joints, and an
+    element MuJoCo does not know is left out with a warning naming it."""
+    pytest.importorskip("mujoco")
+    path = write_cabinet_mjcf(tmp_path / "cabinet")
+    with pytest.warns(UserWarning, match=r"cabinet.xml: left out .*: region"):
+        m = load_model(path)
+    assert set(m.links) == {"world", "cabinet", "door"} and m.links["world"] == []
+    assert len(m.links["cabinet"]) == 2 and len(m.links["door"]) == 1  # the meshes, not the boxes and capsules
+    body = trimesh.util.concatenate(m.links["cabinet"])
+    np.testing.assert_allclose(body.bounds, [[-0.2, -0.201, -0.3], [0.2, 0.2, 0.3]], atol=1e-6)
+    np.testing.assert_allclose(m.links["door"][0].extents, [0.4, 0.02, 0.6], atol=1e-6)
+    j = m.joints["door_hinge"]
+    assert j.type == "revolute" and j.limits == pytest.approx((-2.0, 0.0))
+    np.testing.assert_allclose(j.origin[:3, 3], [-0.2, -0.2, 0.0])
+    obj = model_to_object(
+        m,
+        "c",
+        "c/0",
+        [("body", ["cabinet"], "none"), ("door", ["door"], "none")],
+        [JointMapping("door_hinge", sign=-1.0, range=(0.0, 1.5))],
+        canonical_from_file=Z_UP,
+    )
+    np.testing.assert_allclose(obj.parts[1].size_m, [0.4, 0.6, 0.02], atol=1e-6)
+
+
+def test_mjcf_with_visual_geoms_in_their_own_group(tmp_path):
+    """Visual geoms in group 1 (colliding by MuJoCo's defaults), collision capsules in group 3 with the
+    inertia taken from group 3 only and a mass-0 inertial (MuJoCo's physics refuses both): the geometry is
+    read, group 3 is left out because the file has geoms in the groups MuJoCo shows; the collision-only
+    body in group 0 stays until the spec excludes it by name or by group."""
+    pytest.importorskip("mujoco")
+    path = write_grouped_arm_mjcf(tmp_path)
+    m = load_model(path)
+    assert len(m.links["base"]) == 1 and len(m.links["link2"]) == 1 and len(m.links["link2_proxy"]) == 1
+    np.testing.assert_allclose(m.links["base"][0].extents[2], 0.1, atol=1e-6)  # the visual cylinder, not the capsule
+    np.testing.assert_allclose(m.links["link2"][0].extents, [0.1, 0.08, 0.196], atol=1e-6)
+    parts = [("base", ["base"], "none"), ("link1", ["link1"], "none"), ("link2", "*", "none")]
+    joints = [JointMapping("joint1", range=(-1.0, 1.0)), JointMapping("joint2", range=(-1.0, 1.0))]
+    with_proxy = model_to_object(m, "a", "a/0", parts, joints)
+    assert with_proxy.parts[2].size_m[2] == pytest.approx(0.231, abs=1e-3)  # the proxy's capsule reaches beyond
+    for kw in ({"exclude_links": ["link2_proxy"]}, {"exclude_geom_groups": [0, 3]}):
+        clean = model_to_object(load_model(path, **kw), "a", "a/0", parts, joints)
+        np.testing.assert_allclose(clean.parts[2].size_m, [0.1, 0.08, 0.196], atol=1e-6)
+    with pytest.raises(InputError, match=r"links to exclude \['nope'\] are not in the file"):
+        load_model(path, exclude_links=["nope"])
+    every = load_model(path, exclude_geom_groups=[])
+    assert len(every.links["base"]) == 2  # nothing left out: the collision capsule too
+
+
+def test_urdf_in_a_ros_package_finds_its_package_meshes_and_leaves_out_a_collision_only_link(tmp_path):
+    path = write_ros_package(tmp_path)
+    m = load_model(path)  # package://my_arm_description/... from .../my_arm_description/urdf/: no search path needed
+    assert len(m.links["base_link"]) == 1 and m.links["tool_collision"] == []
+    np.testing.assert_allclose(m.links["base_link"][0].bounds, [[-0.1, -0.1, 0.0], [0.1, 0.1, 0.1]], atol=1e-6)
+    np.testing.assert_allclose(m.links["arm_link"][0].extents, [0.06, 0.06, 0.3], atol=1e-6)
+    # inside the package folder the reference resolves; with the roots elsewhere it is refused, not read
+    load_model(path, roots=[tmp_path])
+    with pytest.raises(InputError, match=r"lies outside the spec's folders"):
+        load_model(path, roots=[tmp_path / "my_arm_description" / "urdf"])
+
+
+def test_a_file_without_visual_geometry_is_read_from_its_collision_geometry(tmp_path):
+    path = tmp_path / "col.urdf"
+    path.write_text(
+        '<robot name="c"><link name="a"><collision><geometry><box size="0.2 0.3 0.4"/></geometry></collision></link></robot>'
+    )
+    np.testing.assert_allclose(load_model(path).links["a"][0].extents, [0.2, 0.3, 0.4], atol=1e-9)
+
+
+def test_mjcf_meshes_match_mujocos_own_geometry(tmp_path):
+    """Meshes are read with trimesh (a placeholder stands in for the compile): scaled, placed by the geom
+    and a mesh default class exactly as MuJoCo places its own copy (float32 there)."""
+    mujoco = pytest.importorskip("mujoco")
+    from scipy.spatial.transform import Rotation
+
+    (tmp_path / "m").mkdir()
+    part = trimesh.creation.box(extents=[0.3, 0.1, 0.05])
+    part.apply_transform(trimesh.transformations.euler_matrix(0.2, 0.4, 0.6))
+    part.apply_translation([0.2, -0.1, 0.4])
+    part.export(tmp_path / "m" / "part.stl")
+    for extra in ('scale="2 1.5 0.5"', 'class="big"', 'refpos="0.1 0.2 0.3" refquat="0.9 0.1 0.2 0.3"'):
+        path = tmp_path / "t.xml"
+        path.write_text(
+            f"""<mujoco><compiler angle="degree" meshdir="m"/>
+            <default><default class="big"><mesh scale="3 3 3"/></default></default>
+            <asset><mesh name="p" file="part.stl" {extra}/></asset>
+            <worldbody><body name="a" pos="0 0 1" euler="5 6 7"><joint name="j" type="hinge" axis="0 1 0"/>
+            <geom type="mesh" mesh="p" pos="0.1 0.2 0.3" euler="40 50 60"/></body></worldbody></mujoco>"""
+        )
+        ours = load_model(path).links["a"][0]
+        mj = mujoco.MjModel.from_xml_path(str(path))
+        w, x, y, z = mj.geom_quat[0]
+        theirs = np.asarray(mj.mesh_vert, np.float64) @ Rotation.from_quat([x, y, z, w]).as_matrix().T + mj.geom_pos[0]
+        np.testing.assert_allclose(np.sort(ours.vertices, 0)[[0, -1]], np.sort(theirs, 0)[[0, -1]], atol=1e-6)
+        from scipy.spatial import cKDTree
+
+        assert cKDTree(theirs).query(ours.vertices)[0].max() < 1e-6, extra
+
+
+def test_mjcf_msh_meshes_and_unknown_attributes(tmp_path):
+    """MuJoCo's binary .msh format is read; an attribute this MuJoCo does not know is left out with a warning."""
+    pytest.importorskip("mujoco")
+    box = trimesh.creation.box(extents=[0.1, 0.2, 0.3])
+    v, f = np.asarray(box.vertices, "<f4"), np.asarray(box.faces, "<i4")
+    header = np.array([len(v), 0, 0, len(f)], "<i4")
+    (tmp_path / "b.msh").write_bytes(header.tobytes() + v.tobytes() + f.tobytes())
+    path = tmp_path / "m.xml"
+    path.write_text(
+        '<mujoco><asset><mesh name="b" file="b.msh"/></asset><worldbody><body name="a">'
+        '<geom type="mesh" mesh="b" shinyness="2"/></body></worldbody></mujoco>'
+    )
+    with pytest.warns(UserWarning, match=r"left out .*geom/@shinyness"):
+        m = load_model(path)
+    np.testing.assert_allclose(m.links["a"][0].extents, [0.1, 0.2, 0.3], atol=1e-6)
+    (tmp_path / "b.msh").write_bytes(header.tobytes() + v.tobytes())
+    with pytest.warns(UserWarning), pytest.raises(InputError, match=r"cannot read mesh file .*b.msh \(ValueError: its size does"):
+        load_model(path)
+
+
+def test_mjcf_includes_are_inlined_and_kept_inside_the_roots(tmp_path):
+    pytest.importorskip("mujoco")
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "body.xml").write_text(
+        '<mujocoinclude><body name="b"><geom type="box" size="0.1 0.2 0.3"/></body></mujocoinclude>'
+    )
+    path = tmp_path / "scene.xml"
+    path.write_text('<mujoco><worldbody><include file="parts/body.xml"/></worldbody></mujoco>')
+    np.testing.assert_allclose(load_model(path, roots=[tmp_path]).links["b"][0].extents, [0.2, 0.4, 0.6], atol=1e-9)
+    (tmp_path / "sub").mkdir()
+    inner = tmp_path / "sub" / "scene.xml"
+    inner.write_text('<mujoco><worldbody><include file="../parts/body.xml"/></worldbody></mujoco>')
+    with pytest.raises(InputError, match=r"scene.xml: <include file='../parts/body.xml'>: .*outside the spec's folders"):
+        load_model(inner, roots=[tmp_path / "sub"])
+    (tmp_path / "loop.xml").write_text('<mujoco><worldbody><include file="loop.xml"/></worldbody></mujoco>')
+    with pytest.raises(InputError, match=r"includes nest deeper than 16 files \(a cycle\?\)"):
+        load_model(tmp_path / "loop.xml")
+
+
+def test_mesh_references_stay_inside_the_roots(tmp_path):
+    """With roots (a spec's base_dir and search path), '..' that leaves them, absolute and file:// mesh
+    references are refused; without roots (the Python API on a file of one's own) they are read."""
+    secret = write_base_mesh(tmp_path / "elsewhere" / "secret.stl")
+    (tmp_path / "spec").mkdir()
+    for ref in ("../elsewhere/secret.stl", str(secret), f"file://{secret}"):
+        path = tmp_path / "spec" / "escape.urdf"
+        path.write_text(
+            f'<robot name="e"><link name="a"><visual><geometry><mesh filename="{ref}"/></geometry></visual></link></robot>'
+        )
+        assert len(load_model(path).links["a"]) == 1
+        with pytest.raises(InputError, match=r"escape.urdf: link 'a': mesh file .*(outside the spec's folders|absolute)"):
+            load_model(path, roots=[tmp_path / "spec"])
+
+
+def test_mesh_size_limits_name_the_file(tmp_path):
+    from ucope.objects.importers import MeshLimits
+
+    path = write_two_link_urdf(tmp_path)
+    size = (tmp_path / "toy_pkg" / "meshes" / "base.stl").stat().st_size
+    with pytest.raises(
+        InputError, match=r"base.stl is 0.0 MiB, above the limit of 0.0 MiB \(raise it with the spec's mesh_limits"
+    ):
+        load_model(path, limits=MeshLimits(max_file_bytes=size - 1))
+    with pytest.raises(InputError, match=r"base.stl has 36 vertices, above the limit of 10 \(raise it .*max_vertices\)"):
+        load_model(path, limits=MeshLimits(max_vertices=10))
+    with pytest.raises(InputError, match=r"has 12 faces, above the limit of 11"):
+        load_model(path, limits=MeshLimits(max_faces=11))
+    assert len(load_model(path, limits=MeshLimits(max_file_bytes=size)).links["base_link"]) == 1
+    # a sparse file of 2 GiB is refused by its size on disk before anything reads it
+    big = tmp_path / "toy_pkg" / "meshes" / "base.stl"
+    with open(big, "r+b") as f:
+        f.truncate(2 * 2**30)
+    with pytest.raises(InputError, match=r"base.stl is 2048.0 MiB, above the limit of 256.0 MiB"):
+        load_model(path)

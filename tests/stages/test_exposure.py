@@ -10,20 +10,14 @@ from ucope.errors import InputError
 from ucope.geometry.kinematics import joint_state_from_poses
 from ucope.geometry.transforms import make_transform, random_rotation
 from ucope.priors import CategoryPriors, JointPrior, PartPrior
-from ucope.stages.exposure import (
-    DEPTH_TOL,
-    FACE_GRID,
-    RAY_NEIGHBOURS,
-    RAY_RADIUS,
-    SLIDE_MIN_POINTS,
-    SLIDE_SHRINK,
-    exposed_surface_share,
-    slide_weak_children,
-)
+from ucope.stages.exposure import exposed_surface_share, slide_weak_children
+from ucope.stages.freespace import FreeSpaceParams
 from ucope.vocab import JointType
 
+P = FreeSpaceParams()
 
-def exposed_reference(T, S, pts, camera, grid=FACE_GRID, ray_radius=RAY_RADIUS, depth_tol=DEPTH_TOL, k=RAY_NEIGHBOURS):
+
+def exposed_reference(T, S, pts, camera, grid=P.face_grid, ray_radius=P.ray_radius, depth_tol=P.depth_tol, k=P.ray_neighbours):
     """One box at a time, one face sample at a time: the plain version of exposed_surface_share."""
     rel = np.asarray(pts) - camera
     uv = rel[:, :2] / rel[:, 2:3]
@@ -111,8 +105,8 @@ def _cabinet(view: str, n: int = 4000, seed: int = 0):
 
 
 SLACK_M = 0.1
-"""How far out of closed the side view's drawer may be left: the box checked is the drawer's shrunk to SLIDE_SHRINK of
-its 0.45 m depth (3.4 cm each side), a ray counts as seen within RAY_RADIUS point spacings of a seen one (about 3 cm at
+"""How far out of closed the side view's drawer may be left: the box checked is the drawer's shrunk to ``slide_shrink`` of
+its 0.45 m depth (3.4 cm each side), a ray counts as seen within ``ray_radius`` point spacings of a seen one (about 3 cm at
 2 m here), and the states are 1 cm apart."""
 
 
@@ -126,7 +120,7 @@ def test_a_hidden_drawer_voted_where_the_camera_would_have_seen_it_is_slid_back(
     cab, drawer_at, S, axis, pts, priors = _cabinet("side")
     labels = np.zeros(len(pts), dtype=np.int64)
     voted = np.stack([cab, drawer_at(0.3)])
-    assert exposed_surface_share(voted[1:], SLIDE_SHRINK * S[1], pts)[0] > 0.2  # the precondition
+    assert exposed_surface_share(voted[1:], P.slide_shrink * S[1], pts)[0] > 0.2  # the precondition
     out, moved = slide_weak_children(voted, S, axis[None], pts, labels, priors)
     q = _state(out, S, axis, priors)
     assert 0.0 <= q <= SLACK_M and moved[1] == pytest.approx(q - 0.3) and moved[0] == 0.0
@@ -144,13 +138,13 @@ def test_a_drawer_the_view_hides_at_every_state_keeps_its_voted_state():
     labels = np.zeros(len(pts), dtype=np.int64)
     for state in (0.0, 0.2, 0.33):
         voted = np.stack([cab, drawer_at(state)])
-        assert exposed_surface_share(voted[1:], SLIDE_SHRINK * S[1], pts)[0] < 0.05  # a stray sample between rays
+        assert exposed_surface_share(voted[1:], P.slide_shrink * S[1], pts)[0] < 0.05  # a stray sample between rays
         out, moved = slide_weak_children(voted, S, axis[None], pts, labels, priors)
         assert not moved.any() and np.array_equal(out, voted)
     cab, drawer_at, S, axis, pts, priors = _cabinet("side")
     voted = np.stack([cab, drawer_at(0.3)])
     seen = np.zeros(len(pts), dtype=np.int64)
-    seen[:SLIDE_MIN_POINTS] = 1  # ten points given to the drawer: it counts as seen
+    seen[: P.slide_min_points] = 1  # ten points given to the drawer: it counts as seen
     _, moved = slide_weak_children(voted, S, axis[None], pts, seen, priors)
     assert not moved.any()
     rev = CategoryPriors(category="hinge", parts=priors.parts, joints=(JointPrior(JointType.REVOLUTE, 0, 1, (1.0, 0.0, 0.0)),))
@@ -173,7 +167,7 @@ def test_the_slide_range_follows_the_measured_share_of_the_drawer_depth():
     ):
         out, _ = slide_weak_children(voted, S, axis[None], pts, labels, replace(priors, joints=(jp,)))
         assert 0.0 <= _state(out, S, axis, priors) <= top + 1e-9
-    # neither measured nor limited above: the range ends at SLIDE_EXTENT_SHARE of the depth
+    # neither measured nor limited above: the range ends at ``slide_extent_share`` of the depth
     unmeasured = replace(priors, joints=(replace(priors.joints[0], max_state_over_extent=None, limits=(0.0, None)),))
     out, _ = slide_weak_children(voted, S, axis[None], pts, labels, unmeasured)
     assert 0.0 <= _state(out, S, axis, priors) <= SLACK_M

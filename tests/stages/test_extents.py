@@ -13,16 +13,9 @@ from ucope.errors import InputError
 from ucope.geometry.boxes import SEEN_PATTERNS
 from ucope.geometry.transforms import make_transform, random_rotation, rotation_about_axis
 from ucope.priors import JointPrior
-from ucope.stages.extents import (
-    ANCHOR_MAX_SPREAD,
-    FIT_MAX_RATIO,
-    FIT_MIN_RATIO,
-    FIT_MIN_SEEN,
-    anchor_faced_faces,
-    carry_child_sizes,
-    fit_seen_extents,
-    grow_to_points,
-)
+from ucope.stages.extents import FitBoxesParams, anchor_faced_faces, carry_child_sizes, fit_seen_extents, grow_to_points
+
+P = FitBoxesParams()
 
 
 def joined_reference(local, half, factor):
@@ -228,7 +221,7 @@ def test_fit_matches_the_plain_reference(seed):
     table[rng.uniform(size=table.shape[:3]) < 0.3] = np.nan  # patterns never measured
     sym = ["none", "y", "none"]
     got_T, got_S, fitted = fit_seen_extents(T, S, pts, labels, table, sym, connect_factor=None, max_occluded=1.0, min_points=20)
-    ref_T, ref_S = fit_reference(T, S, pts, labels, table, sym, 0.01, 20, FIT_MIN_RATIO, FIT_MAX_RATIO, FIT_MIN_SEEN)
+    ref_T, ref_S = fit_reference(T, S, pts, labels, table, sym, 0.01, 20, P.fit_min_ratio, P.fit_max_ratio, P.fit_min_seen)
     np.testing.assert_allclose(got_S, ref_S, rtol=1e-12)
     np.testing.assert_allclose(got_T, ref_T, rtol=1e-12, atol=1e-12)
     assert fitted.any() and not fitted[1, [0, 2]].any()
@@ -348,7 +341,7 @@ def test_anchoring_matches_the_plain_reference(seed):
     got, moved = anchor_faced_faces(
         T, S, pts, labels, table, parts=(0, 2), keep=keep, connect_factor=None, max_occluded=1.0, min_points=20
     )
-    ref = anchor_reference(T, S, pts, labels, table, (0, 2), keep, 0.01, 20, ANCHOR_MAX_SPREAD)
+    ref = anchor_reference(T, S, pts, labels, table, (0, 2), keep, 0.01, 20, P.anchor_max_spread)
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12)
     assert not moved[1].any() and not (moved & keep).any()
     np.testing.assert_array_equal(got[:, :3, :3], T[:, :3, :3])

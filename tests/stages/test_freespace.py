@@ -12,7 +12,7 @@ from ucope.errors import InputError
 from ucope.geometry.kinematics import joint_state_from_poses
 from ucope.geometry.transforms import axis_angle_transform, make_transform, random_rotation
 from ucope.priors import CategoryPriors, JointPrior, PartPrior
-from ucope.stages.freespace import SHRINK, place_weak_parts, segments_through_box
+from ucope.stages.freespace import FreeSpaceParams, place_weak_parts, segments_through_box
 from ucope.stages.support import box_surface_distance
 from ucope.vocab import JointType
 
@@ -90,7 +90,7 @@ def test_a_lid_voted_over_the_keyboard_or_off_its_points_is_turned_back():
         voted = T.copy()
         voted[1] = _turn(T[1], axis, hinge, wrong)
         if wrong > 0:  # the precondition: the voted lid hides base points from the camera
-            assert segments_through_box(voted[1:], SHRINK * S[1], pts[labels == 0]).mean() > 0.05
+            assert segments_through_box(voted[1:], FreeSpaceParams().turn_shrink * S[1], pts[labels == 0]).mean() > 0.05
         out, turned = place_weak_parts(voted, S, axis[None], hinge[None], pts, labels, priors)
         q = joint_state_from_poses(out[0], out[1], axis, "revolute")
         assert abs(np.degrees(q - q_true)) <= 2.0, (wrong, np.degrees(q - q_true))

@@ -55,7 +55,7 @@ def test_a_door_voted_too_far_open_turns_back_onto_its_points():
             0.05 * np.linalg.norm(S[1]), np.linalg.norm(voted[1, :3, 3] - T[1, :3, 3])
         )
         np.testing.assert_array_equal(got[0], voted[0])
-    pri, T, voted, S, axis, pts, lab = _open_door_scene(voted_off=0.01)  # under TURN_MIN_DEG
+    pri, T, voted, S, axis, pts, lab = _open_door_scene(voted_off=0.01)  # under the smallest turn (min_turn_deg)
     got, turned = turn_thin_children(voted, S, axis[None], pts, lab, pri)
     assert not turned.any() and np.array_equal(got, voted)
 

@@ -29,6 +29,8 @@ def _parse_shards(text: str | None) -> range | None:
 
 
 def _spec_summary(own) -> str:
+    """What ``ucope categories --spec`` prints: the parts, the category joints, and per instance file its
+    extents and each category joint's limits in the file and as category states."""
     import numpy as np
 
     lines = [f"{own.name}: valid spec, {len(own.families)} instance file(s), K = {own.spec.num_parts}"]
@@ -43,11 +45,12 @@ def _spec_summary(own) -> str:
             f"states [{js.limits[0]:.4g}, {js.limits[1]:.4g}] {unit} "
             f"(spec: {j['range']} {j['unit']}, sign {j['sign']:+d}, offset {j['offset']:g})"
         )
-    from ..objects.spec import _expand_files
-
-    entries = [it for _, it in _expand_files(own.doc)]  # in the order of own.families
-    for fam, it in zip(own.families, entries, strict=True):
-        o = own.objects[fam]
+    for k, files in sorted(own.skipped.items()):
+        names = ", ".join(f.name for f in files[:6]) + (", ..." if len(files) > 6 else "")
+        lines.append(f"  instances[{k}] (folder {own.doc['instances'][k]['file']}): left out {len(files)} file(s): {names}")
+    entries = {fam: own.doc["instances"][k] for fam, k in own.entry_of.items()}
+    for fam in own.families:
+        o, it = own.objects[fam], entries[fam]
         lo, hi = o.bounds(o.rest_state)
         held = " (held out: ood)" if any(f.held_out for f in own.spec.shape_families if f.name == fam) else ""
         ext = np.round(100 * (hi - lo), 1).tolist()
@@ -58,7 +61,44 @@ def _spec_summary(own) -> str:
             js = [{**j, **e} for j, e in zip(own.doc["joints"], it["joints"], strict=True)]
             named = [f"{j['joint']} (sign {j['sign']:+d}, offset {j['offset']:g})" for j in js]
             lines.append("    its joints: " + "; ".join(named))
+        for i, (jname, file_lim, state_lim) in enumerate(own.joint_limits.get(fam, ())):
+            unit = "rad" if o.joints[i].type == "revolute" else "m"
+            fl = "none (unlimited)" if file_lim is None else f"[{file_lim[0]:.4g}, {file_lim[1]:.4g}] {unit}"
+            sl = "" if state_lim is None else f" = states [{state_lim[0]:.4g}, {state_lim[1]:.4g}] {unit}"
+            smp = f"; sampled [{o.limits[i][0]:.4g}, {o.limits[i][1]:.4g}] {unit}"
+            flip = "; axis turned round to the category's, states negated" if i in own.flipped.get(fam, ()) else ""
+            lines.append(f"    joint {i} {jname!r}: file limits {fl}{sl}{smp}{flip}")
     return "\n".join(lines)
+
+
+def _draw_instances(own, out: Path) -> Path:
+    """Every instance of a spec at the middle of its sampled states, one panel each, in one picture."""
+    import math
+    import tempfile
+
+    from ..data.visualize import plot_object
+    from ..plotting import pyplot, save_figure
+
+    plt = pyplot()
+    n = len(own.families)
+    cols = min(4, n)
+    rows = math.ceil(n / cols)
+    with tempfile.TemporaryDirectory(prefix="ucope_categories_") as tmp:
+        panels = []
+        for fam in own.families:
+            obj = own.objects[fam]
+            state = obj.limits.mean(axis=1) if obj.joints else None
+            title = f"{own.name} {fam}" + (f": state {[round(float(v), 2) for v in state]}" if state is not None else "")
+            panels.append(plt.imread(plot_object(obj, Path(tmp) / f"{fam}.png", state=state, title=title)))
+            plt.close("all")
+        h, w = panels[0].shape[:2]
+        fig, axes = plt.subplots(rows, cols, figsize=(cols * w / 110, rows * h / 110), dpi=110, squeeze=False)
+        for ax in axes.ravel():
+            ax.axis("off")
+        for ax, img in zip(axes.ravel(), panels, strict=False):
+            ax.imshow(img)
+        fig.subplots_adjust(left=0, right=1, top=1, bottom=0, wspace=0.02, hspace=0.02)
+        return save_figure(fig, out)
 
 
 def cmd_categories(args: argparse.Namespace) -> int:
@@ -69,7 +109,8 @@ def cmd_categories(args: argparse.Namespace) -> int:
     if args.picture is not None and args.no_picture:
         raise UcopeError("--picture FILE and --no-picture contradict each other: give one")
     if args.spec is not None:
-        from ..data.visualize import plot_object
+        import warnings
+
         from ..objects.spec import load_spec
         from .outputs import writable_path
 
@@ -77,18 +118,17 @@ def cmd_categories(args: argparse.Namespace) -> int:
             from ..plotting import pyplot
 
             pyplot()  # a missing matplotlib is said before the spec's files are read
-        own = load_spec(args.spec)
+        with warnings.catch_warnings(record=True) as caught:  # one line each (a size off, an axis turned round)
+            warnings.simplefilter("always")
+            own = load_spec(args.spec)
+        for w in caught:
+            print(f"warning: {w.message}", file=sys.stderr)
         out = Path(args.picture or f"conventions_{own.name}.png")
         if not args.no_picture:
             writable_path(out, "--picture")
         print(_spec_summary(own))
         if not args.no_picture:
-            obj = own.objects[own.families[0]]
-            state = obj.limits.mean(axis=1) if obj.joints else None
-            title = f"{own.name} ({own.families[0]})" + (
-                f": state {[round(float(v), 2) for v in state]}" if state is not None else ""
-            )
-            print(f"wrote {plot_object(obj, out, state=state, title=title)}")
+            print(f"wrote {_draw_instances(own, out)} ({len(own.families)} instance(s))")
         return 0
     rows = [("name", "family", "K", "joints", "symmetry", "parts")]
     for s in list_categories():

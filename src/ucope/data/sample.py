@@ -19,14 +19,17 @@ name               shape / type    meaning
 ``category``       str             category name
 ``instance_id``    str             ``category/split/seed/index`` of the object instance
 ``index``          int             sample index in its data set
+``source``         str             the model file the instance was built from (categories of your
+                                   own objects only: relative to the spec's ``base_dir``)
 ``bg_points``      (M, 3) float32  background points just outside the object's silhouette (floor,
                                    distractor objects), nearest first, at the cloud's density
 ``bg_rank``        (M,) float32    their pixel distance to the silhouette (ascending)
 ``bg_clutter``     (M,) bool       True for a distractor object's point, False for the floor
 =================  ==============  =============================================================
 
-The three ``bg_`` fields are optional (data sets generated with ``background=False`` lack them); they
-feed the floor and mask-bleed corruptions of :mod:`ucope.data.corrupt` (training augmentation).
+``source`` is absent for the procedural categories. The three ``bg_`` fields are optional (data sets
+generated with ``background=False`` lack them); they feed the floor and mask-bleed corruptions of
+:mod:`ucope.data.corrupt` (training augmentation).
 """
 
 from __future__ import annotations
@@ -97,7 +100,9 @@ def sample_from_view(
         keep = random_subset(len(pts), max_points, rng)
         pts, labels = pts[keep], labels[keep]
     normals = estimate_normals(pts, k=normal_k)
+    source = obj.params.get("source") if isinstance(obj.params, dict) else None
     return {
+        **({"source": source} if isinstance(source, str) and source else {}),
         "points": pts.astype(np.float32),
         "normals": normals,
         "part_labels": labels,

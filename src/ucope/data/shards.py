@@ -52,6 +52,8 @@ def write_shard(path: str | os.PathLike, samples: list[dict]) -> None:
     arrays["index"] = np.array([s["index"] for s in samples], dtype=np.int64)
     arrays["instance_id"] = np.array([s["instance_id"] for s in samples])
     arrays["category"] = np.array([s["category"] for s in samples])
+    if all("source" in s for s in samples):  # the instance's model file (categories of your own objects)
+        arrays["source"] = np.array([str(s["source"]) for s in samples])
     if all("bg_points" in s for s in samples):
         bg = np.array([len(s["bg_points"]) for s in samples], dtype=np.int64)
         arrays["bg_offsets"] = np.concatenate([[0], np.cumsum(bg)]).astype(np.int64)
@@ -110,6 +112,8 @@ def read_shard(path: str | os.PathLike, num_parts: int | None = None, category: 
                 s["bg_clutter"] = data["bg_clutter"][c:d]
             s["category"] = str(data["category"][i])
             s["instance_id"] = str(data["instance_id"][i])
+            if "source" in data:
+                s["source"] = str(data["source"][i])
             s["index"] = int(data["index"][i])
             out.append(s)
         return out
@@ -131,7 +135,7 @@ def _check_shard(path, data: dict, n: int, num_parts: int | None, category: str 
     for k in ("normals", "part_labels"):
         if len(data[k]) != P:
             raise DataError(f"shard {path}: {k} has {len(data[k])} rows for {P} points; it is corrupt")
-    for k in _STACK_FIELDS + ("index", "instance_id", "category"):
+    for k in _STACK_FIELDS + ("index", "instance_id", "category") + (("source",) if "source" in data else ()):
         if len(data[k]) != n:
             raise DataError(f"shard {path}: {k} has {len(data[k])} entries for {n} samples; it is corrupt")
     if not np.all(np.isfinite(data["points"])):

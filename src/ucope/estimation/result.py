@@ -95,7 +95,7 @@ _PART_KEYS = {"index", "label", "symmetry", "cam_from_part", "size_m", "score", 
 _JOINT_KEYS = {"type", "parent", "child", "pivot_m", "axis", "state", "state_unit", "score"}
 _ERROR_KEYS = {"parts", "joints", "segmentation_iou", "segmentation_accuracy"}
 _PART_ERROR_KEYS = {"rotation_deg", "translation_m", "translation_norm", "iou"}
-_JOINT_ERROR_KEYS = {"joint_type", "axis_deg", "pivot_m", "state_error", "state_unit", "axis_flipped"}
+_JOINT_ERROR_KEYS = {"joint_type", "axis_deg", "axis_line_deg", "pivot_m", "state_error", "state_unit", "axis_flipped"}
 
 
 def _check_stages(stages) -> None:

@@ -267,18 +267,22 @@ def part_errors(cam_from_part_pred, size_pred, cam_from_part_gt, size_gt, symmet
 # --------------------------------------------------------------------------------------------------
 
 
-def axis_angle_error_deg(u_pred, u_gt) -> float:
-    """Angle between two joint axis directions, ignoring their sign: ``min(theta, 180 - theta)``.
+def axis_angle_error_deg(u_pred, u_gt, signed: bool = False) -> float:
+    """Angle between two joint axis directions.
 
     Args:
         u_pred, u_gt: ``(3,)`` non-zero axis directions (any length; normalised here), same frame.
+        signed: ``False``: the angle between the axis lines, ``min(theta, 180 - theta)``, in ``[0, 90]``
+            (opposite directions give 0); ``True``: the angle ``theta`` between the directions, in
+            ``[0, 180]`` (opposite directions give 180).
 
     Returns:
-        Degrees in ``[0, 90]``; opposite directions give 0.
+        Degrees.
     """
     a = _unit(u_pred, "u_pred")
     b = _unit(u_gt, "u_gt")
-    return float(np.degrees(math.atan2(np.linalg.norm(np.cross(a, b)), abs(float(np.dot(a, b))))))
+    dot = float(np.dot(a, b))
+    return float(np.degrees(math.atan2(np.linalg.norm(np.cross(a, b)), dot if signed else abs(dot))))
 
 
 def line_distance_m(p1, u1, p2, u2, parallel_tol_rad: float = 1e-6) -> float:
@@ -334,12 +338,15 @@ def state_error(pred, gt, joint_type) -> float:
 def joint_errors(axis_pred, pivot_pred, state_pred, axis_gt, pivot_gt, state_gt, joint_type) -> dict:
     """All errors of one joint in one sample, as a JSON-friendly dict.
 
-    The axis error ignores the sign of the axis (:func:`axis_angle_error_deg`), so the state error is
-    measured about the same sign: a joint state is signed by its axis (turning by ``q`` about ``u`` is
-    turning by ``-q`` about ``-u``; sliding ``q`` along ``u`` is sliding ``-q`` along ``-u``), so when the
-    predicted axis points away from the ground truth's (``axis_pred . axis_gt < 0``) the predicted state
-    is negated before :func:`state_error` compares it.  A prediction that differs from the ground truth
-    only by the sign of its axis (and hence of its state) has zero axis and state errors.
+    A joint state is signed by its axis (turning by ``q`` about ``u`` is turning by ``-q`` about ``-u``;
+    sliding ``q`` along ``u`` is sliding ``-q`` along ``-u``), and a category's axis sign is part of its
+    state convention (a door's positive state opens it). So the axis error is sign-aware: ``axis_deg`` is
+    the angle between the two directions, in ``[0, 180]`` (a prediction about the opposite axis is 180
+    degrees off), and the state error compares the two states as they are. A prediction that differs
+    from the ground truth only by the sign of its axis and of its state (the same motion in the other
+    convention) reads 180 degrees of axis error and the state error of ``|q_pred - q_gt|``;
+    ``axis_line_deg`` (the angle between the axis lines, sign aside, in ``[0, 90]``) and ``axis_flipped``
+    say so.
 
     Args:
         axis_pred, axis_gt: ``(3,)`` joint axis directions, camera frame (normalised here).
@@ -350,22 +357,26 @@ def joint_errors(axis_pred, pivot_pred, state_pred, axis_gt, pivot_gt, state_gt,
         joint_type: ``"revolute"`` / ``0`` or ``"prismatic"`` / ``1``.
 
     Returns:
-        ``{"joint_type": "revolute" | "prismatic", "axis_deg": float, "pivot_m": float | None,
-        "state_error": float, "state_unit": "deg" | "m", "axis_flipped": bool}``; ``pivot_m``
-        (:func:`line_distance_m`) is ``None`` for prismatic joints, whose axis has no location;
-        ``axis_flipped`` says whether the predicted axis (and state) was turned round to the ground
-        truth's side.
+        ``{"joint_type": "revolute" | "prismatic", "axis_deg": float, "axis_line_deg": float,
+        "pivot_m": float | None, "state_error": float, "state_unit": "deg" | "m", "axis_flipped": bool}``;
+        ``pivot_m`` (:func:`line_distance_m`) is ``None`` for prismatic joints, whose axis has no
+        location; ``axis_flipped``: the predicted axis points away from the ground truth's
+        (``axis_pred . axis_gt < 0``).
 
     Raises:
         InputError: on a zero or malformed axis, a non-finite state or pivot, or an unknown joint type.
     """
     jt = _joint_type(joint_type)
     flipped = bool(np.dot(_unit(axis_pred, "axis_pred"), _unit(axis_gt, "axis_gt")) < 0.0)
-    out = {"joint_type": jt, "axis_deg": axis_angle_error_deg(axis_pred, axis_gt), "pivot_m": None}
+    out = {
+        "joint_type": jt,
+        "axis_deg": axis_angle_error_deg(axis_pred, axis_gt, signed=True),
+        "axis_line_deg": axis_angle_error_deg(axis_pred, axis_gt),
+        "pivot_m": None,
+    }
     if jt == "revolute":
         out["pivot_m"] = line_distance_m(pivot_pred, axis_pred, pivot_gt, axis_gt)
-    state = check_scalar(state_pred, "state_pred")
-    out["state_error"] = state_error(-state if flipped else state, state_gt, jt)
+    out["state_error"] = state_error(check_scalar(state_pred, "state_pred"), state_gt, jt)
     out["state_unit"] = "deg" if jt == "revolute" else "m"
     out["axis_flipped"] = flipped
     return out
@@ -559,8 +570,9 @@ def summarize_joints(samples: Sequence[Sequence[Mapping | None]]) -> dict:
 
     Returns:
         ``{"num_samples": N, "num_joints": J, "joint_type": [J], "state_unit": [J],
-        "axis_deg": {"mean": [J], "median": [J]}, "pivot_m": {...}, "state_error": {...}}``;
-        ``pivot_m`` statistics are ``None`` for prismatic joints.
+        "axis_deg": {"mean": [J], "median": [J]}, "axis_line_deg": {...}, "pivot_m": {...}, "state_error": {...},
+        "axis_flipped_fraction": [J]}``; ``pivot_m`` statistics are ``None`` for prismatic joints; the
+        fraction of samples whose predicted axis pointed away from the ground truth's (``None`` without any).
     """
     j_count = _check_table(samples, "samples")
     out = {"num_samples": len(samples), "num_joints": j_count, "joint_type": [], "state_unit": []}
@@ -571,7 +583,12 @@ def summarize_joints(samples: Sequence[Sequence[Mapping | None]]) -> dict:
         kind = kinds.pop() if kinds else None
         out["joint_type"].append(kind)
         out["state_unit"].append({"revolute": "deg", "prismatic": "m"}.get(kind))
-    for key in ("axis_deg", "pivot_m", "state_error"):
+    for key in ("axis_deg", "axis_line_deg", "pivot_m", "state_error"):
         stats = [_stats([_value(row[j], key, f"samples[{i}][{j}]") for i, row in enumerate(samples)]) for j in range(j_count)]
         out[key] = {"mean": [s["mean"] for s in stats], "median": [s["median"] for s in stats]}
+    flips = [
+        [bool(row[j]["axis_flipped"]) for row in samples if row[j] is not None and "axis_flipped" in row[j]]
+        for j in range(j_count)
+    ]
+    out["axis_flipped_fraction"] = [sum(f) / len(f) if f else None for f in flips]
     return out

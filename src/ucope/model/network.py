@@ -34,7 +34,7 @@ from ..errors import InputError
 from ..vocab import JointType
 from .config import ModelConfig
 from .pointnet2 import PointNet2Encoder
-from .targets import bin_centres, joint_point_targets, pair_features, pair_vote_targets, two_hot
+from .targets import bin_centres, joint_point_targets, pair_features, pair_vote_targets, two_hot_kl
 
 __all__ = ["UCOPENet", "PerGroupLinear", "per_group_linear"]
 
@@ -178,26 +178,29 @@ class UCOPENet(nn.Module):
             raise InputError(f"pair_idx must be (B={B}, K={K}, M, 2), got {tuple(pair_idx.shape)}")
         M = pair_idx.shape[2]
         f1, masks = enc["feats"], enc["masks"]
-        # First layer per point and part ((F1 * m_k) W = m_k (F1 W), it is linear), then gathered:
-        # part k's pair (i, j) takes pa[k, i] + pb[k, j].
+        # The first layer is linear: (F1 * m_k) W = m_k (F1 W), so it is applied once per point (proj), and
+        # part k's pair (i, j) takes m_k[i] proj_a[i] + m_k[j] proj_b[j]. pair_geo of [PPF, part one-hot] =
+        # PPF W_g^T + (W_onehot[:, k] + bias): a constant per part.
         proj = self.pair_point(f1)  # (B, N, 2H)
-        mk = masks.permute(0, 2, 1).unsqueeze(-1)  # (B, K, N, 1)
-        # pair_geo of [PPF, part one-hot] = PPF W_g^T + (W_onehot[:, k] + bias): the part's constant
-        # is added to its point rows once, before the gather, instead of to every pair.
         W = self.pair_geo.weight  # (H, 4 + K)
         part_const = (W[:, 4:].T + self.pair_geo.bias).view(1, K, 1, H)
-        pa = (mk * proj[:, None, :, :H] + part_const).reshape(B * K * N, H)
-        pb = (mk * proj[:, None, :, H:]).reshape(B * K * N, H)
-        offs = (torch.arange(B * K, device=points.device) * N).view(B, K, 1)  # row of (b, k, point 0)
-        ia = (pair_idx[..., 0] + offs).reshape(-1)
-        ib = (pair_idx[..., 1] + offs).reshape(-1)
         flat = pair_idx.reshape(B, K * M * 2)
         bidx = torch.arange(B, device=points.device)[:, None]
+        if M < N:  # training (hundreds of pairs a part): gather the pairs' rows, then weight them by their part's mask
+            b3, kk = bidx.view(B, 1, 1), torch.arange(K, device=points.device).view(1, K, 1)
+            ia, ib = pair_idx[..., 0], pair_idx[..., 1]  # (B, K, M)
+            h = (masks[b3, ia, kk].unsqueeze(-1) * proj[..., :H][b3, ia] + part_const).reshape(B * K * M, H)
+            h += (masks[b3, ib, kk].unsqueeze(-1) * proj[..., H:][b3, ib]).reshape(B * K * M, H)
+        else:  # inference (thousands of pairs a part): weight every point once per part, then gather the pairs' rows
+            mk = masks.permute(0, 2, 1).unsqueeze(-1)  # (B, K, N, 1)
+            pa = (mk * proj[:, None, :, :H] + part_const).reshape(B * K * N, H)
+            pb = (mk * proj[:, None, :, H:]).reshape(B * K * N, H)
+            offs = (torch.arange(B * K, device=points.device) * N).view(B, K, 1)  # row of (b, k, point 0)
+            h = pa.index_select(0, (pair_idx[..., 0] + offs).reshape(-1))  # (B K M, H), in place from here
+            h += pb.index_select(0, (pair_idx[..., 1] + offs).reshape(-1))
         pts = points[bidx, flat].reshape(B, K, M, 2, 3)
         nrm = normals[bidx, flat].reshape(B, K, M, 2, 3)
         geo = pair_features(pts[..., 0, :], pts[..., 1, :], nrm[..., 0, :], nrm[..., 1, :], self.norm_scale)
-        h = pa.index_select(0, ia)  # (B K M, H), in place from here: one buffer instead of four
-        h += pb.index_select(0, ib)
         h.addmm_(geo.reshape(-1, 4), W[:, :4].T)
         h = self.pair_mlp(h.view(B, K, M, H))
         out = self.pair_outputs(h, heads)
@@ -327,13 +330,11 @@ class UCOPENet(nn.Module):
         def masked_mean(x, w):  # per part mean over the batch's valid pairs -> (K,)
             return (x * w).sum((0, 2)) / w.sum((0, 2)).clamp_min(1.0)
 
-        def kl(logits, target):
-            return F.kl_div(logits.log_softmax(-1), target, reduction="none").sum(-1)
-
-        l_mu = masked_mean(kl(out["mu_logits"], two_hot(t["mu"], -V, V, cfg.mu_bins)), valid)
-        l_nu = masked_mean(kl(out["nu_logits"], two_hot(t["nu"], 0.0, V, cfg.nu_bins)), valid)
-        l_alpha = masked_mean(kl(out["alpha_logits"], two_hot(t["alpha"], 0.0, math.pi, cfg.angle_bins)), valid)
-        l_beta = masked_mean(kl(out["beta_logits"], two_hot(t["beta"], 0.0, math.pi, cfg.angle_bins)), valid * nonsym)
+        # KL of the two-hot bin targets, without materialising them (two_hot_kl): B K M rows of up to 36 bins
+        l_mu = masked_mean(two_hot_kl(out["mu_logits"], t["mu"], -V, V), valid)
+        l_nu = masked_mean(two_hot_kl(out["nu_logits"], t["nu"], 0.0, V), valid)
+        l_alpha = masked_mean(two_hot_kl(out["alpha_logits"], t["alpha"], 0.0, math.pi), valid)
+        l_beta = masked_mean(two_hot_kl(out["beta_logits"], t["beta"], 0.0, math.pi), valid * nonsym)
         sign_bce = F.binary_cross_entropy_with_logits(out["sign_logits"], t["sign"], reduction="none")
         l_sign = masked_mean(sign_bce[..., 0], valid) + masked_mean(sign_bce[..., 1], valid * nonsym)
         g_err = (out["gamma"] - t["gamma"].unsqueeze(2)).pow(2).mean(-1)

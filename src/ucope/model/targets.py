@@ -27,6 +27,7 @@ __all__ = [
     "pair_vote_targets",
     "joint_point_targets",
     "two_hot",
+    "two_hot_kl",
     "bin_centres",
     "canonical_pair_normals",
     "pair_features",
@@ -170,3 +171,32 @@ def two_hot(x: torch.Tensor, lo: torch.Tensor | float, hi: torch.Tensor | float,
     if n > 1:
         out.scatter_add_(-1, (i0 + 1).unsqueeze(-1), w1.unsqueeze(-1))
     return out
+
+
+def two_hot_kl(logits: torch.Tensor, x: torch.Tensor, lo: torch.Tensor | float, hi: torch.Tensor | float) -> torch.Tensor:
+    """``KL(two_hot(x, lo, hi, n) || softmax(logits))`` over the last axis (``n = logits.shape[-1]``), per row.
+
+    Equal to ``F.kl_div(logits.log_softmax(-1), two_hot(x, lo, hi, n), reduction="none").sum(-1)`` (to float
+    rounding), without materialising the ``(..., n)`` target or log-probabilities: a two-hot target has two
+    non-zero entries, so the divergence is ``sum_i t_i (log t_i - logits_i + logsumexp(logits))`` over them.
+
+    Args:
+        logits: ``(..., n)`` bin logits; x: ``(...)`` values; lo, hi: as in :func:`two_hot`.
+
+    Returns:
+        ``(...)`` divergences (differentiable in ``logits``).
+    """
+    n = logits.shape[-1]
+    lo = torch.as_tensor(lo, dtype=x.dtype, device=x.device)
+    hi = torch.as_tensor(hi, dtype=x.dtype, device=x.device)
+    pos = ((x - lo) / (hi - lo) * n - 0.5).clamp(0.0, n - 1.0)
+    if n > 1:
+        i0 = pos.floor().clamp(max=n - 2).long()
+        w1 = (pos - i0.to(pos.dtype)).clamp(0.0, 1.0)
+        idx = torch.stack([i0, i0 + 1], dim=-1)
+        w = torch.stack([1.0 - w1, w1], dim=-1)
+    else:
+        idx = torch.zeros((*pos.shape, 1), dtype=torch.long, device=x.device)
+        w = torch.ones((*pos.shape, 1), dtype=x.dtype, device=x.device)
+    log_p = logits.gather(-1, idx) - logits.logsumexp(-1, keepdim=True)
+    return (torch.xlogy(w, w) - w * log_p).sum(-1)

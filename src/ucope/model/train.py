@@ -330,6 +330,32 @@ def _load_val(tc: TrainConfig, spec: dict | None = None):
     }
 
 
+def _check_out_folder(out: Path) -> None:
+    """Refuse a run folder that cannot be made or written (an existing file, a folder without write
+    permission) before any work starts, without making it (it is made once every input is read)."""
+    if out.exists() and not out.is_dir():
+        raise TrainingError(f"--out {out} is a file, not a folder")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise TrainingError(f"--out {out}: cannot write to {probe}")
+
+
+def _check_val_sources(tc: TrainConfig, spec: dict) -> None:
+    """The training data's category spec can be read here (its files exist): the default validation views
+    are generated from it. Raises :class:`InputError` naming the missing file and how to do without it."""
+    from ..data.generate import GenerateConfig, category_of
+
+    try:
+        category_of(GenerateConfig(category=tc.category, split="val", spec=spec))
+    except InputError as e:
+        raise InputError(
+            f"the validation views of {tc.category!r} are generated from its spec's files, which cannot be read here "
+            f"({e}); give a validation data set (--val-data DIR, made with ucope generate --spec ... --split val)"
+        ) from None
+
+
 def _progress_bar(total: int, initial: int, enabled: bool):
     if not enabled:
         return None
@@ -518,9 +544,11 @@ class _Run:
         if tc.threads:
             torch.set_num_threads(int(tc.threads))
         if dd.main:
-            self.out.mkdir(parents=True, exist_ok=True)
-        dd.barrier()
+            _check_out_folder(self.out)
         self.samples, self.data_desc, structure = _load_samples(tc)
+        spec = None if tc.on_the_fly else getattr(self.samples, "meta", {}).get("spec")
+        if dd.main and tc.val_data is None and spec is not None:
+            _check_val_sources(tc, spec)  # before anything is written: the default validation views need the files
         self.ckpt = load_checkpoint(self.out) if tc.resume else None
         if self.ckpt is not None:
             _check_resume_settings(tc, self.ckpt, self.data_desc)
@@ -550,8 +578,10 @@ class _Run:
         if self.steps_per_epoch == 0:
             raise InputError(f"the training data ({len(self.items)} samples) is smaller than one global batch ({self.per_step})")
         self.total = int(tc.steps) if tc.steps is not None else int(round(float(tc.epochs) * self.steps_per_epoch))
-        spec = None if tc.on_the_fly else getattr(self.samples, "meta", {}).get("spec")
         self.val_samples, self.val_desc = _load_val(tc, spec) if dd.main else (None, None)
+        if dd.main:  # every input is read and checked: only now is the run folder made
+            self.out.mkdir(parents=True, exist_ok=True)
+        dd.barrier()
         self.log = _MetricsLog(self.out / "metrics.jsonl", dd.main, self.step if self.ckpt is not None else None)
         self.t_start = time.perf_counter()
         self.window_t0 = self.t_start

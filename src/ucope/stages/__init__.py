@@ -12,8 +12,13 @@ call) and :mod:`ucope.priors` (what the ``learned-prior`` stages read). Modules 
 * :mod:`.faces`: ``align_faces``; :mod:`.flips`: ``flips``; :mod:`.upright`: ``upright``;
 * :mod:`.revolution`: ``revolution_fit``;
 * :mod:`.states`: ``kinematic_refine``; :mod:`.confidence`: ``score``;
-* :mod:`.extents`: ``fit_boxes``; :mod:`.prismatic`: ``prismatic``; :mod:`.exposure`: ``free_space``;
-* :mod:`.revolute`: ``turn_children``, ``seat_parts``.
+* :mod:`.extents`: ``fit_boxes``; :mod:`.prismatic`: ``prismatic``;
+* :mod:`.exposure`: ``free_space`` (its parameters and its turn of hinged parts in :mod:`.freespace`);
+* :mod:`.revolute`: ``turn_children``, ``seat_parts``;
+* :mod:`.support`: what several stages share (argument checks, joined points, shared defaults).
+
+Every constant a stage uses is a field of its parameter dataclass (``STAGE.PARAM`` overrides it); the defaults
+several stages share are named once in :mod:`.support`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,6 @@
-"""Exposure: how much of a box the camera would have seen, and hidden drawers slid back to where it would not.
+"""Exposure: how much of a box the camera would have seen, hidden drawers slid back to where it would not, and
+the ``free_space`` stage (its parameters, :class:`ucope.stages.freespace.FreeSpaceParams`, and its turn of hinged
+parts live in :mod:`ucope.stages.freespace`).
 
 :func:`exposed_surface_share` counts the share of a box's camera-facing surface that the camera would have seen
 where it saw nothing, or in front of a surface it saw; :func:`slide_weak_children` slides a prismatic child that
@@ -9,7 +11,6 @@ Camera frame (the camera at the origin), metres.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,58 +19,15 @@ from ..geometry.kinematics import joint_state_from_poses
 from ..priors import CategoryPriors
 from ..vocab import JointType
 from .base import PoseState, stage
-from .freespace import place_weak_parts
+from .freespace import FreeSpaceParams, place_weak_parts
 from .support import (
-    FRONT_MIN_CONFIDENCE,
     _checked_camera,
-    _checked_confidence,
     _checked_scene,
+    _confident,
     box_surface_distance,
 )
-from .upright import UPRIGHT_MARGIN_DEG
 
-SLIDE_MIN_POINTS = 10
-"""A prismatic child with fewer (confident) points than this is hidden: :func:`slide_weak_children` checks its slide
-against the view. (Checking drawers with up to 5 % of the points too lost views: their few points voted the slide
-better than the check, which a box voted 1.1-1.3x too large fools.)"""
-
-
-SLIDE_STEPS = 33
-"""States tried, evenly spaced over a hidden child's range."""
-
-
-SLIDE_SLACK = 0.02
-"""A state is open where its cost (the share of the box's faced surface the view contradicts, plus the misfit of the
-child's own points) is at most this above the least cost over the range."""
-
-
-SLIDE_SHRINK = 0.92
-"""The box whose faced surface is checked: the child's shrunk to this share of its extents, so that a box voted a
-little too large (the shipped drawer's hidden drawers: often 1.1-1.3x as deep as they are) does not poke through the
-cabinet's seen back wall at its true state. Measured on the shipped drawer (test / OOD views it succeeds on, of 200 /
-100): 1.0 133 / 47, 0.92 140 / 48, 0.85 134 / 44, against 131 / 45 without the check (docs/results.md)."""
-
-
-SLIDE_EXTENT_SHARE = 0.75
-"""Without a measured ``JointPrior.max_state_over_extent``, a child slides out at most this share of its own box extent
-along the slide (a three-quarter extension slide)."""
-
-
-FACE_GRID = 7
-"""Samples per side of each box face in :func:`exposed_surface_share` (``7 x 7`` per face)."""
-
-
-RAY_NEIGHBOURS = 8
-"""A sample's ray is compared with the rays of up to this many cloud points nearest to it in the image plane ..."""
-
-
-RAY_RADIUS = 2.5
-"""... within this many times the cloud's median nearest-neighbour spacing there (``x / z, y / z`` from the camera)."""
-
-
-DEPTH_TOL = 0.03
-"""A sample is in free space where the nearest surface the camera saw along its ray lies more than this share of the
-box diagonal beyond it."""
+_P = FreeSpaceParams()
 
 
 def exposed_surface_share(
@@ -77,9 +35,10 @@ def exposed_surface_share(
     size_m,
     points,
     camera=None,
-    grid: int = FACE_GRID,
-    ray_radius: float = RAY_RADIUS,
-    depth_tol: float = DEPTH_TOL,
+    grid: int = _P.face_grid,
+    ray_radius: float = _P.ray_radius,
+    depth_tol: float = _P.depth_tol,
+    neighbours: int = _P.ray_neighbours,
 ) -> np.ndarray:
     """The share of each box's camera-facing surface that the view says is not there.
 
@@ -87,7 +46,7 @@ def exposed_surface_share(
     are compared in the image plane (``x / z, y / z`` from the camera). A sample is contradicted where the
     camera saw nothing along its ray (no cloud point within ``ray_radius`` times the cloud's median
     nearest-neighbour spacing of it: the object's silhouette does not cover it), or where the nearest surface
-    among the (up to ``RAY_NEIGHBOURS``) cloud points nearest to it within that radius lies more than
+    among the (up to ``neighbours``) cloud points nearest to it within that radius lies more than
     ``depth_tol`` times the box diagonal beyond the sample (free space). Samples behind a seen surface
     (occluded) and on it are not. The cloud is taken to be every surface the camera saw near the object (the
     object and any background points kept with it, which can only occlude more).
@@ -98,7 +57,7 @@ def exposed_surface_share(
         size_m: ``(B, 3)`` or ``(3,)`` box extents (metres, > 0).
         points: ``(P, 3)`` the cloud (same frame); at least two in front of the camera (the others are ignored).
         camera: ``(3,)`` the camera centre in that frame (``None``: the origin).
-        grid, ray_radius, depth_tol: as above.
+        grid, ray_radius, depth_tol, neighbours: as above.
 
     Returns:
         ``(B,)`` shares in ``[0, 1]`` (0 for a box with no face towards the camera).
@@ -121,12 +80,15 @@ def exposed_surface_share(
         raise InputError("cam_from_box, size_m and points must be finite")
     if (S <= 0).any():
         raise InputError(f"size_m must be positive, got {S.tolist()}")
-    if int(grid) < 2 or not ray_radius > 0 or not depth_tol >= 0:
-        raise InputError(f"grid must be >= 2, ray_radius > 0 and depth_tol >= 0, got {grid!r}, {ray_radius!r}, {depth_tol!r}")
+    if int(grid) < 2 or not ray_radius > 0 or not depth_tol >= 0 or int(neighbours) < 1:
+        raise InputError(
+            f"grid must be >= 2, ray_radius > 0, depth_tol >= 0 and neighbours >= 1, got {grid!r}, {ray_radius!r}, "
+            f"{depth_tol!r}, {neighbours!r}"
+        )
     rays = _ray_index(pts, cam, ray_radius)
     if rays is None:
         raise InputError("at least two points must lie in front of the camera (positive z from it)")
-    return _exposed_share(T, S, cam, rays, int(grid), depth_tol)
+    return _exposed_share(T, S, cam, rays, int(grid), depth_tol, int(neighbours))
 
 
 def _ray_index(pts: np.ndarray, cam: np.ndarray, ray_radius: float):
@@ -164,7 +126,7 @@ def _face_lattice(g: int) -> tuple[np.ndarray, np.ndarray]:
     return unit, nrm
 
 
-def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, depth_tol: float) -> np.ndarray:
+def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, depth_tol: float, neighbours: int) -> np.ndarray:
     """:func:`exposed_surface_share` on checked inputs and a prepared :func:`_ray_index`."""
     rel, tree, r = rays
     unit, nrm = _face_lattice(g)
@@ -175,7 +137,7 @@ def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, 
     qr = q[facing] - cam  # (Q, 3) the faced samples only, from the camera
     box = np.nonzero(facing)[0]
     front = qr[:, 2] > 1e-9
-    k = min(RAY_NEIGHBOURS, len(rel))
+    k = min(neighbours, len(rel))
     dist, idx = tree.query(qr[front, :2] / qr[front, 2:3], k=k, distance_upper_bound=r)
     dist, idx = dist.reshape(-1, k), idx.reshape(-1, k)
     seen_z = np.where(np.isfinite(dist), rel[np.minimum(idx, len(rel) - 1), 2], np.inf).min(1)  # the nearest surface seen
@@ -185,6 +147,32 @@ def _exposed_share(T: np.ndarray, S: np.ndarray, cam: np.ndarray, rays, g: int, 
     return np.bincount(box[bad], minlength=len(T)) / np.maximum(facing.sum(1), 1)
 
 
+def _slide_states(T: np.ndarray, S: np.ndarray, jp, axis: np.ndarray, steps: int, extent_share: float):
+    """``(states, q0)``: the voted state ``q0`` of joint ``jp``'s child (sliding along the unit ``axis``) followed by
+    ``steps`` states evenly over its range (the lower limit, 0 without one, to the least of the upper limit and the
+    child's extent along the slide times ``max_state_over_extent``, else ``extent_share``); ``None`` for an empty
+    range."""
+    c = jp.child
+    ext = float(np.abs(T[c, :3, :3].T @ axis) @ S[c])  # the child's extent along the slide
+    share = jp.max_state_over_extent if jp.max_state_over_extent is not None else extent_share
+    lo = jp.limits[0] if jp.limits[0] is not None else 0.0
+    hi = share * ext if jp.limits[1] is None else min(jp.limits[1], share * ext)
+    if not hi > lo:
+        return None
+    q0 = float(joint_state_from_poses(T[jp.parent], T[c], axis, "prismatic", S[jp.parent], S[c], jp.zero_offset_m))
+    return np.concatenate([[q0], np.linspace(lo, hi, steps)]), q0
+
+
+def _nearest_open(states: np.ndarray, cost: np.ndarray, slack: float) -> float | None:
+    """Where a hidden child slides to: ``None`` where the voted state (``states[0]``) is open (its cost at most
+    ``slack`` above the least of the others), else the open state nearest to it."""
+    least = cost[1:].min()
+    if cost[0] <= least + slack:
+        return None
+    grid, open_ = states[1:], cost[1:] <= least + slack
+    return float(grid[open_][np.argmin(np.abs(grid[open_] - states[0]))])
+
+
 def slide_weak_children(
     cam_from_part,
     size_m,
@@ -192,59 +180,54 @@ def slide_weak_children(
     points,
     labels,
     priors: CategoryPriors,
-    min_points: int = SLIDE_MIN_POINTS,
-    steps: int = SLIDE_STEPS,
-    slack: float = SLIDE_SLACK,
-    shrink: float = SLIDE_SHRINK,
+    min_points: int = _P.slide_min_points,
+    steps: int = _P.slide_steps,
+    slack: float = _P.slide_slack,
+    shrink: float = _P.slide_shrink,
     camera=None,
     confidence=None,
+    extent_share: float = _P.slide_extent_share,
+    min_confidence: float = _P.min_confidence,
+    grid: int = _P.face_grid,
+    ray_radius: float = _P.ray_radius,
+    depth_tol: float = _P.depth_tol,
+    neighbours: int = _P.ray_neighbours,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Hidden prismatic children kept where the view leaves room for them: a drawer voted pulled out where the
-    camera would have seen it is slid back to the nearest state the view allows.
+    """Hidden prismatic children (drawers) voted where the camera would have seen them, slid back to the nearest
+    state the view leaves room for.
 
-    A drawer a view hides (under the open drawer above it, behind its cabinet) has no point to vote its slide
-    from. The view still rules states out: a box the camera would have seen where it saw nothing (outside the
-    object's silhouette), or in front of a surface it saw (free space), is not there
-    (:func:`exposed_surface_share` of the box shrunk to ``shrink`` of its extents, plus the median distance of
-    any of the child's own points to the box over its diagonal). For each prismatic child with fewer than
-    ``min_points`` (confident) points, ``steps`` states evenly spaced over its range are costed; those at most
-    ``slack`` above the least cost are open. The voted state stands where it is open, else the child takes the
-    open state nearest to it. Where the view hides every state (from behind) nothing moves: the slide is not
-    observed, and the voted state is kept: the drawers a back view hides are more often shut than a uniform draw over
-    the range would make them, and the network votes them so (on the shipped drawer's back test views it put 24 of 50
-    such drawers within the success bound, the middle of the range 17; docs/results.md). The range: the joint's lower
-    limit (0 without one) to the least of its upper limit and the child's extent along the slide times
-    ``JointPrior.max_state_over_extent`` (:data:`SLIDE_EXTENT_SHARE` where not measured). Only the child moves,
-    along ``joint_axis``; rotations and sizes are kept; the caller re-reads the states from the new poses.
+    A box the camera would have seen where it saw nothing, or in front of a surface it saw, is not there. For each
+    prismatic child with fewer than ``min_points`` (confident) points, ``steps`` states evenly spaced over its range
+    (:func:`_slide_states`) are costed: :func:`exposed_surface_share` of the box shrunk to ``shrink`` of its extents,
+    plus the median distance of the child's own points to the box over its diagonal. States at most ``slack`` above
+    the least cost are open. The voted state stands where it is open, else the child takes the open state nearest to
+    it; where the view hides every state, nothing moves. Only the child moves, along ``joint_axis``; the caller
+    re-reads the states from the new poses.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres; or any frame ``camera`` is given in).
-        size_m: ``(K, 3)`` box extents (metres, > 0).
+        cam_from_part: ``(K, 4, 4)`` part poses (metres, the frame of ``camera``); size_m: ``(K, 3)`` extents (> 0).
         joint_axis: ``(J, 3)`` the joints' axes (same frame; a prismatic one points the way its child pulls out).
         points: ``(P, 3)`` the cloud (same frame; every point counts as a surface the camera saw).
         labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (tree, joint types, limits, zero offsets, ``max_state_over_extent``).
-        min_points, steps, slack, shrink: as above (``steps >= 2``, ``slack >= 0``, ``0 < shrink <= 1``).
-        camera: ``(3,)`` the camera centre in that frame (``None``: the origin).
-        confidence: optional ``(P,)`` per point, the probability that it is the object; points below
-            ``FRONT_MIN_CONFIDENCE`` do not count as a part's.
+        min_points, steps, slack, shrink, extent_share: as above (``steps >= 2``, ``slack >= 0``, ``0 < shrink <= 1``).
+        camera: ``(3,)`` the camera centre (``None``: the origin); confidence: optional ``(P,)`` the probability
+            that each point is the object (points below ``min_confidence`` are no part's).
+        grid, ray_radius, depth_tol, neighbours: as :func:`exposed_surface_share`.
 
     Returns:
-        ``(cam_from_part, moved_m)``: a ``(K, 4, 4)`` float64 copy and ``(K,)`` how far each child moved along its
-        slide (metres; 0 for parts that stayed).
+        ``(cam_from_part, moved_m)``: a ``(K, 4, 4)`` float64 copy and ``(K,)`` how far (metres) each part slid.
 
     Raises:
         InputError: shapes that do not match the priors, non-finite values, non-positive sizes, labels that are not
-            integers, ``steps < 2``, a negative ``slack``, a ``shrink`` outside ``(0, 1]``, a camera that is not a
-            finite ``(3,)`` position.
+            integers, ``steps < 2``, ``slack < 0``, ``shrink`` outside ``(0, 1]``, a camera that is not a finite point.
     """
     T, S, u, _, pts, lab, cam = _checked_scene(cam_from_part, size_m, joint_axis, points, labels, priors, camera)
     K = priors.num_parts
     if int(steps) < 2 or not slack >= 0.0 or not 0.0 < shrink <= 1.0:
         raise InputError(f"steps must be >= 2, slack >= 0 and shrink in (0, 1], got {steps!r}, {slack!r}, {shrink!r}")
     moved = np.zeros(K)
-    if confidence is not None:
-        lab = np.where(_checked_confidence(confidence, len(lab)) >= FRONT_MIN_CONFIDENCE, lab, -1)
+    lab = _confident(lab, confidence, min_confidence)
     counts = np.bincount(lab[(lab >= 0) & (lab < K)], minlength=K)
     rays = None
     for j, jp in enumerate(priors.joints):  # a handful of joints; the work per joint is vectorised
@@ -252,39 +235,24 @@ def slide_weak_children(
         if jp.type != JointType.PRISMATIC or counts[c] >= max(int(min_points), 1) or not np.linalg.norm(u[j]) > 0:
             continue
         axis = u[j] / np.linalg.norm(u[j])
-        ext = float(np.abs(T[c, :3, :3].T @ axis) @ S[c])  # the child's extent along the slide
-        share = jp.max_state_over_extent if jp.max_state_over_extent is not None else SLIDE_EXTENT_SHARE
-        lo = jp.limits[0] if jp.limits[0] is not None else 0.0
-        hi = share * ext if jp.limits[1] is None else min(jp.limits[1], share * ext)
-        if not hi > lo:
+        if (tried := _slide_states(T, S, jp, axis, int(steps), extent_share)) is None:
             continue
-        q0 = float(joint_state_from_poses(T[jp.parent], T[c], axis, "prismatic", S[jp.parent], S[c], jp.zero_offset_m))
-        states = np.concatenate([[q0], np.linspace(lo, hi, int(steps))])  # the voted state first
+        states, q0 = tried  # the voted state first
         cand = np.broadcast_to(T[c], (len(states), 4, 4)).copy()
         cand[:, :3, 3] += (states - q0)[:, None] * axis
-        rays = _ray_index(pts, cam, RAY_RADIUS) if rays is None else rays  # once, for every hidden child
+        rays = _ray_index(pts, cam, ray_radius) if rays is None else rays  # once, for every hidden child
         if rays is None:  # fewer than two points in front of the camera: no view to check against
             break
-        cost = _exposed_share(cand, np.broadcast_to(shrink * S[c], (len(cand), 3)), cam, rays, FACE_GRID, DEPTH_TOL)
+        cost = _exposed_share(cand, np.broadcast_to(shrink * S[c], (len(cand), 3)), cam, rays, grid, depth_tol, neighbours)
         own = pts[lab == c]
         if len(own):
             cost = cost + np.median(box_surface_distance(cand, S[c], own), axis=1) / np.linalg.norm(S[c])
-        least = cost[1:].min()
-        if cost[0] <= least + slack:
+        q = _nearest_open(states, cost, slack)
+        if q is None:
             continue
-        grid, open_ = states[1:], cost[1:] <= least + slack
-        q = float(grid[open_][np.argmin(np.abs(grid[open_] - q0))])
         T[c, :3, 3] += (q - q0) * axis
         moved[c] = q - q0
     return T, moved
-
-
-@dataclass(frozen=True)
-class FreeSpaceParams:
-    """Attributes: upright_margin_deg: a turned part never leaves its training upright cone by more than this
-    (``None``: no limit, for a camera that is not upright)."""
-
-    upright_margin_deg: float | None = UPRIGHT_MARGIN_DEG
 
 
 @stage(
@@ -298,10 +266,23 @@ def _free_space(state: PoseState, params: FreeSpaceParams) -> None:
     """Parts the camera barely sees moved to where the view leaves room for them: a hidden drawer slid back where
     the camera would not have seen it, a hidden lid or base turned about its hinge to where its box hides none of
     the seen points."""
-    T, S, pri, lab = state.cam_from_part, state.size_m, state.priors, state.part_labels
+    T, S, pri, lab, p = state.cam_from_part, state.size_m, state.priors, state.part_labels, params
     if any(jp.type == JointType.PRISMATIC for jp in pri.joints):
+        slide = dict(min_points=p.slide_min_points, steps=p.slide_steps, slack=p.slide_slack, shrink=p.slide_shrink)
+        view = dict(grid=p.face_grid, ray_radius=p.ray_radius, depth_tol=p.depth_tol, neighbours=p.ray_neighbours)
         T, slid = slide_weak_children(
-            T, S, state.joint_axis, state.points, lab, pri, camera=state.camera, confidence=state.confidence
+            T,
+            S,
+            state.joint_axis,
+            state.points,
+            lab,
+            pri,
+            camera=state.camera,
+            confidence=state.confidence,
+            extent_share=p.slide_extent_share,
+            min_confidence=p.min_confidence,
+            **slide,
+            **view,
         )
         for k in np.flatnonzero(slid):
             state.warnings.append(
@@ -309,6 +290,7 @@ def _free_space(state: PoseState, params: FreeSpaceParams) -> None:
                 f"it was slid {slid[k] / state.scale:+.3f} m along its joint to the nearest state the view leaves room for"
             )
     if any(jp.type == JointType.REVOLUTE for jp in pri.joints):
+        turn = dict(weak_share=p.weak_share, strong_share=p.strong_share, turn_cost=p.turn_cost, max_turn_deg=p.max_turn_deg)
         T, turned = place_weak_parts(
             T,
             S,
@@ -317,8 +299,12 @@ def _free_space(state: PoseState, params: FreeSpaceParams) -> None:
             state.points,
             lab,
             pri,
+            step_deg=p.step_deg,
             camera=state.camera,
-            upright_margin_deg=params.upright_margin_deg,
+            upright_margin_deg=p.upright_margin_deg,
+            shrink=p.turn_shrink,
+            stop=p.turn_stop,
+            **turn,
         )
         for k in np.flatnonzero(turned):
             state.warnings.append(

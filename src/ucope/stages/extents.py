@@ -1,25 +1,21 @@
-"""Box extents from the points a part shows.
+"""Box extents from the points a part shows (the ``fit_boxes`` stage).
 
-The voted size of a part (``exp(gamma)`` times the category's mean size) is pulled towards the training
-objects' proportions. A part's amodal box holds all of its surface, so:
+The voted size of a part (``exp(gamma)`` times the category's mean size) leans towards the training objects'
+proportions, while a part's amodal box holds all of its surface:
 
-* :func:`grow_to_points` widens each box, axis by axis in the part's voted frame, until it holds the part's
-  points (a robust range: the ``quantile`` and ``1 - quantile`` quantiles), and moves its centre to the middle
-  of that range. Only points joined to the box count (one connected piece, steps no longer than
-  ``connect_factor`` times the median nearest-neighbour distance, with a point inside the voted box) and only
-  those the segmentation is sure are not background (``confidence >= min_confidence``). It never shrinks a
-  box and never touches a thin axis (below ``thin_ratio`` of the part's median extent), a part symmetric about
-  y, or a part with fewer than ``min_points`` points.
+* :func:`grow_to_points` widens each box, axis by axis in the part's voted frame, until it holds the robust range
+  of the part's sure points (``quantile`` to ``1 - quantile``), its centre moved to the middle of that range. It
+  never shrinks a box, nor touches a thin axis, a part symmetric about y or a part with too few points.
 * :func:`fit_seen_extents` sets the axes that views with this face pattern saw whole in training
   (``PartPrior.seen_extent``) from the points, larger or smaller than voted.
 * :func:`anchor_faced_faces` moves a box so that the faces the camera faces sit where the points put them
   (``PartPrior.faced_gap``).
 * :func:`carry_child_sizes` gives a child the extents its measured parent says it has, where their ratio
-  never varied over the training views.
+  (``JointPrior.child_size_ratio``) held over the training views.
 
-Parts another part's box hides are left alone (:func:`ucope.geometry.boxes.occluded_fraction`). Frames and
-units: camera frame, metres; ``cam_from_part`` ``(K, 4, 4)`` as in docs/conventions.md (each box centred on
-its part frame's origin, aligned with its axes).
+Only confident points joined to the box count (:func:`ucope.stages.support.joined_to_box`); parts another
+part's box hides are left alone (:func:`ucope.geometry.boxes.occluded_fraction`). Camera frame, metres;
+``cam_from_part`` ``(K, 4, 4)`` as in docs/conventions.md (boxes centred on their part frames, axis-aligned).
 """
 
 from __future__ import annotations
@@ -39,13 +35,69 @@ from .support import (
     GROW_MIN_CONFIDENCE,
     GROW_MIN_POINTS,
     GROW_QUANTILE,
-    GROW_THIN_RATIO,
+    _check_range_settings,
     _checked,
-    _checked_confidence,
+    _checked_sizes,
+    _confident,
     _hinged_centre,
     _part_mask,
+    _symmetries,
     joined_to_box,
 )
+
+
+@dataclass(frozen=True)
+class FitBoxesParams:
+    """Attributes:
+    grow: widen boxes to hold their points (:func:`grow_to_points`), by ``grow_quantile`` (the range held) and
+        ``grow_thin_ratio`` (axes below it times the part's median extent are never grown).
+    fit: set the axes views like this one see whole from the points (:func:`fit_seen_extents`), then carry a
+        child's extents from its measured parent (:func:`carry_child_sizes`); only parts whose calibrated score
+        is below ``fit_below`` (every part without a calibration), only clouds of ``fit_min_input`` points or more.
+        An axis is fitted where the 10th percentile of its seen ratio for this face pattern is ``fit_min_ratio`` or
+        more and the 90th ``fit_max_ratio`` or less; a fitted extent below ``fit_min_seen`` times the voted one is refused.
+    anchor: put the root part's faces that the camera faces where its points are (:func:`anchor_faced_faces`),
+        only for clouds of ``anchor_min_input`` points or more whose surface noise is at most ``anchor_max_noise_m``,
+        and only along axes whose training gap between face and points varied by at most ``anchor_max_spread``
+        (10th to 90th percentile, part box diagonals).
+    carry_max_spread / carry_min_change: a child's extent follows its measured parent's only along axes whose
+        size ratio varied by at most this (standard deviation over the mean) and where it moves the extent by more
+        than this fraction.
+    sure_confidence: points at least this likely to be the object grow a box and bound a fitted extent from
+        below; plausible_confidence: points at least this likely bound a fitted extent from above and anchor
+        faces (lower, since leaving a part's real points out shrinks a fitted box).
+    min_points: parts with fewer such points keep their box; connect_factor: the longest step between joined points
+        (median nearest-neighbour distances).
+    """
+
+    grow: bool = True
+    fit: bool = True
+    anchor: bool = True
+    fit_below: float = 0.9
+    fit_min_input: int = 1000
+    anchor_min_input: int = 600
+    anchor_max_noise_m: float = 1.5e-3
+    grow_quantile: float = GROW_QUANTILE
+    grow_thin_ratio: float = 0.25
+    fit_min_ratio: float = 0.85
+    fit_max_ratio: float = 1.05
+    fit_min_seen: float = 0.5
+    anchor_max_spread: float = 0.03
+    carry_max_spread: float = 0.03
+    carry_min_change: float = 0.15
+    sure_confidence: float = GROW_MIN_CONFIDENCE
+    plausible_confidence: float = 0.5
+    min_points: int = GROW_MIN_POINTS
+    connect_factor: float = GROW_CONNECT_FACTOR
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.fit_below <= 1.0 and self.anchor_max_noise_m >= 0.0):
+            raise InputError(
+                f"fit_below must be in [0, 1] and anchor_max_noise_m >= 0, got {self.fit_below}, {self.anchor_max_noise_m}"
+            )
+
+
+_P = FitBoxesParams()
 
 
 def grow_to_points(
@@ -54,12 +106,12 @@ def grow_to_points(
     points,
     labels,
     symmetry: Sequence[str] | None = None,
-    quantile: float = GROW_QUANTILE,
-    thin_ratio: float = GROW_THIN_RATIO,
-    min_points: int = GROW_MIN_POINTS,
-    connect_factor: float | None = GROW_CONNECT_FACTOR,
+    quantile: float = _P.grow_quantile,
+    thin_ratio: float = _P.grow_thin_ratio,
+    min_points: int = _P.min_points,
+    connect_factor: float | None = _P.connect_factor,
     confidence=None,
-    min_confidence: float = GROW_MIN_CONFIDENCE,
+    min_confidence: float = _P.sure_confidence,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every part's box widened to hold the robust range of the points labelled as it (module docstring).
 
@@ -67,19 +119,16 @@ def grow_to_points(
         cam_from_part: ``(K, 4, 4)`` the parts' voted poses (camera frame, metres).
         size_m: ``(K, 3)`` their box extents along the part's x, y, z (metres, > 0).
         points: ``(P, 3)`` the cloud the labels belong to (camera frame, metres).
-        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` (-1, the background
-            class ``K``) belong to no part.
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         symmetry: ``K`` part symmetries (``"none"``, ``"y"``...); parts other than ``"none"`` are kept.
             ``None``: every part ``"none"``.
-        quantile: the robust range along each axis is ``[q, 1 - q]`` of the part's coordinates, ``q`` in
-            ``[0, 0.5)``.
+        quantile: in ``[0, 0.5)``; the range along each axis is ``[q, 1 - q]`` of the part's coordinates.
         thin_ratio: axes whose extent is below ``thin_ratio`` times the part's median extent are kept.
         min_points: parts with fewer points (or fewer joined to their box) keep their box.
         connect_factor: only points joined to the box count (:func:`joined_to_box` with this factor);
             ``None``: every point of the part.
-        confidence: ``(P,)`` how sure the segmentation is that each point belongs to the object (the
-            estimator: one minus its background probability); points below ``min_confidence`` do not
-            count. ``None``: every point counts.
+        confidence: ``(P,)`` the probability that each point is the object; points below ``min_confidence``
+            do not count. ``None``: every point counts.
 
     Returns:
         ``(cam_from_part, size_m, grown)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays (rotations
@@ -91,16 +140,9 @@ def grow_to_points(
     """
     T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
     K = len(T)
-    if not 0.0 <= quantile < 0.5:
-        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
-    if connect_factor is not None and not connect_factor > 0:
-        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
-    if confidence is not None:
-        conf = _checked_confidence(confidence, len(pts))
-        lab = np.where(conf >= min_confidence, lab, -1)
-    sym = ["none"] * K if symmetry is None else list(symmetry)
-    if len(sym) != K:
-        raise InputError(f"symmetry must name {K} parts, got {len(sym)}")
+    _check_range_settings(quantile, connect_factor)
+    lab = _confident(lab, confidence, min_confidence)
+    sym = _symmetries(symmetry, K)
     grown = np.zeros(K, dtype=bool)
     for k in range(K):  # a handful of parts; every point operation below is vectorised
         sel = lab == k
@@ -127,28 +169,35 @@ def grow_to_points(
     return T, S, grown
 
 
-FIT_MIN_RATIO = 0.85
-"""An axis is set from its part's points only where at least 90 % of the training views with the same face
-pattern saw at least this fraction of its extent (the 10th percentile of the seen ratio,
-:attr:`ucope.priors.PartPrior.seen_extent`)."""
+def _checked_table(table, shape: tuple, name: str, negative: bool) -> np.ndarray:
+    """``table`` as float64 after checking its shape and that it holds no infinity (NaN: not measured) and, unless
+    ``negative``, no negative entry."""
+    out = np.asarray(table, dtype=np.float64)
+    if out.shape != shape or np.isinf(out).any() or (not negative and (out < 0).any()):
+        what = "finite entries" if negative else "finite ratios >= 0"
+        raise InputError(f"{name} must have shape {shape} with {what} (NaN: not measured), got {out.shape}")
+    return out
 
 
-FIT_MAX_RATIO = 1.05
-"""... and at most 10 % saw more than this fraction (the 90th percentile: sensor noise, a part that reaches past
-its box)."""
+def _robust_range(pts, sel, cam_from_box, half, quantile, connect_factor, min_points) -> np.ndarray | None:
+    """``(2, 3)``: the ``quantile`` and ``1 - quantile`` quantiles of the points ``pts[sel]`` in the box frame
+    ``cam_from_box`` (only those joined to the box ``[-half, half]`` when ``connect_factor`` is given); ``None`` with
+    fewer than ``min_points`` of them."""
+    q = (pts[sel] - cam_from_box[:3, 3]) @ cam_from_box[:3, :3]  # the part's points in its voted frame
+    if connect_factor is not None and len(q):
+        q = q[joined_to_box(q, half, connect_factor)]
+    return np.quantile(q, [quantile, 1.0 - quantile], axis=0) if len(q) >= min_points else None
 
 
-FIT_MIN_CONFIDENCE = 0.5
-"""Points whose confidence (the probability that they are the object, not the background) is below this do not
-count: lower than growth's :data:`GROW_MIN_CONFIDENCE`, since leaving a part's real points out shrinks a fitted
-box where it only keeps a grown one. The bottle's OOD views (shipped model, 100 views; the rule's first version,
-the plausible points alone): 93 % success without fitting, 81 % fitting with 0.9, 96 % with 0.5. The points at
-:data:`GROW_MIN_CONFIDENCE` or above bound the extent from below (``sure_confidence``)."""
-
-
-FIT_MIN_SEEN = 0.5
-"""An axis whose fitted extent would fall below this times its voted extent keeps the voted one: the points
-span far less of it than views like this one do (a segmentation that gave much of the part to a neighbour)."""
+def _seen_axes(table, T, S, sym, movable, min_ratio, max_ratio) -> tuple[np.ndarray, np.ndarray]:
+    """``(stats (K, 3, 3), fit (K, 3) bool)``: the seen-ratio percentiles of this view's face pattern per part and axis,
+    and the axes they say are seen whole (not the x and z axes of a y-symmetric part, only parts in ``movable``)."""
+    K = len(T)
+    stats = table[np.arange(K)[:, None], np.arange(3)[None, :], seen_pattern(T, S)]  # (K, 3, 3) for this view
+    with np.errstate(invalid="ignore"):  # NaN (not measured) compares False
+        fit = (stats[..., 0] >= min_ratio) & (stats[..., 2] <= max_ratio) & (stats[..., 1] > 0)
+    fit[np.array([k for k in range(K) if sym[k] != "none"], dtype=np.int64), 0::2] = False  # x, z of a y-symmetric part
+    return stats, fit & movable[:, None]
 
 
 def fit_seen_extents(
@@ -160,116 +209,75 @@ def fit_seen_extents(
     symmetry: Sequence[str] | None = None,
     parts: Sequence[int] | None = None,
     quantile: float = SEEN_QUANTILE,
-    min_points: int = GROW_MIN_POINTS,
-    connect_factor: float | None = GROW_CONNECT_FACTOR,
+    min_points: int = _P.min_points,
+    connect_factor: float | None = _P.connect_factor,
     confidence=None,
-    min_confidence: float = FIT_MIN_CONFIDENCE,
-    sure_confidence: float = GROW_MIN_CONFIDENCE,
-    min_ratio: float = FIT_MIN_RATIO,
-    max_ratio: float = FIT_MAX_RATIO,
-    min_seen: float = FIT_MIN_SEEN,
+    min_confidence: float = _P.plausible_confidence,
+    sure_confidence: float = _P.sure_confidence,
+    min_ratio: float = _P.fit_min_ratio,
+    max_ratio: float = _P.fit_max_ratio,
+    min_seen: float = _P.fit_min_seen,
     max_occluded: float = SEEN_MAX_OCCLUDED,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Box axes that views like this one see whole, set from the points segmented as their part.
 
-    A box seen from outside shows its extent along an axis wherever the camera faces one of the faces across
-    that axis and nothing hides them, and the training views measure how reliably: per part, axis and face
-    pattern (:func:`ucope.geometry.boxes.seen_pattern`) the percentiles of the seen ratio (the robust range
-    of the part's points along the axis over the box's extent, :attr:`ucope.priors.PartPrior.seen_extent`).
-    Where this view's pattern (from the voted pose and size) saw at least ``min_ratio`` in 90 % of the
-    training views and at most ``max_ratio`` in 90 %, the axis's extent is held between what the points sure to
-    be the object span and what the plausible ones span (each robust range, ``quantile`` to ``1 - quantile``,
-    over the median ratio): a voted extent outside that interval is set to its nearer end, and the box centre
-    moves to the middle of the range that set it. Larger or smaller than voted, then; outliers next to the
-    object (doubted by the segmentation) cannot widen a box, nor real points it doubts narrow one. An object
-    whose proportions the training never had (a countertop dishwasher half as tall as it is wide) is measured
-    rather than pulled to the training sizes.
-    Left alone: parts a neighbour's box hides (more than ``max_occluded`` of their faced points,
-    :func:`ucope.geometry.boxes.occluded_fraction`), the x and z axes of parts symmetric about y, parts with
-    fewer than ``min_points`` points (or joined to their box, :func:`joined_to_box`), and axes whose new
-    extent would be below ``min_seen`` times the voted one.
+    Per part, axis and face pattern (:func:`ucope.geometry.boxes.seen_pattern` of the voted box) the training views
+    measured the seen ratio: the robust range of the part's points along the axis over the box's extent
+    (``seen_extent``). Where this view's pattern saw at least ``min_ratio`` at the 10th percentile and at most
+    ``max_ratio`` at the 90th, the axis's extent is held between the range of the sure points (``confidence >=
+    sure_confidence``) and that of the plausible ones (``>= min_confidence``), each over the median ratio: a voted
+    extent outside that interval is set to its nearer end and the centre moves to the middle of the range that set
+    it. Left alone: parts not in ``parts`` or hidden by a neighbour's box (more than ``max_occluded``), the x and z
+    axes of y-symmetric parts, parts with under ``min_points`` points, and extents that would fall below ``min_seen``
+    times the voted ones.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` the parts' voted poses (camera frame, metres).
-        size_m: ``(K, 3)`` their box extents (metres, > 0).
-        points: ``(P, 3)`` the cloud the labels belong to (camera frame, metres).
-        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        cam_from_part, size_m, points, labels: as :func:`grow_to_points`.
         seen_extent: ``(K, 3, SEEN_PATTERNS, 3)`` per part, axis and face pattern the 10th, 50th and 90th
-            percentiles of the seen ratio, NaN where not measured
-            (:attr:`ucope.priors.CategoryPriors.seen_extent`).
-        symmetry, min_points, connect_factor: as :func:`grow_to_points`.
-        parts: the parts that may be fitted (``None``: all).
-        confidence: ``(P,)`` the probability that each point is the object, not the background (``None``:
-            every labelled point is sure). Points at ``sure_confidence`` or above are sure, points at
-            ``min_confidence`` or above plausible; the others do not count.
+            percentiles of the seen ratio, NaN where not measured (:attr:`ucope.priors.CategoryPriors.seen_extent`).
+        symmetry, min_points, connect_factor: as :func:`grow_to_points`; parts: the parts to fit (``None``: all).
+        confidence: ``(P,)`` the probability that each point is the object (``None``: every labelled point is sure).
 
     Returns:
         ``(cam_from_part, size_m, fitted)``: new ``(K, 4, 4)`` and ``(K, 3)`` float64 arrays (rotations
         unchanged) and ``(K, 3)`` bool, which axes were set.
 
     Raises:
-        InputError: shapes that do not match, non-finite poses, sizes or points, a non-positive size, a
-            negative or non-finite table entry, a part index outside ``[0, K)``, ``quantile`` outside
-            ``[0, 0.5)``, ratios that are not positive.
+        InputError: shapes that do not match, non-finite poses, sizes or points, a non-positive size, a negative
+            or infinite table entry, a part outside ``[0, K)``, ``quantile`` outside ``[0, 0.5)``, a ratio <= 0.
     """
     T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
     K = len(T)
-    table = np.asarray(seen_extent, dtype=np.float64)
-    if table.shape != (K, 3, SEEN_PATTERNS, 3):
-        raise InputError(f"seen_extent must have shape ({K}, 3, {SEEN_PATTERNS}, 3), got {table.shape}")
-    if np.isinf(table).any() or (table < 0).any():
-        raise InputError("seen_extent must hold ratios >= 0 (NaN where not measured)")
-    if not 0.0 <= quantile < 0.5:
-        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    table = _checked_table(seen_extent, (K, 3, SEEN_PATTERNS, 3), "seen_extent", negative=False)
+    _check_range_settings(quantile, connect_factor)
     if not (min_ratio > 0 and max_ratio > 0 and min_seen > 0):
         raise InputError(f"min_ratio, max_ratio and min_seen must be positive, got {min_ratio!r}, {max_ratio!r}, {min_seen!r}")
-    if connect_factor is not None and not connect_factor > 0:
-        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
-    sure = lab
-    if confidence is not None:
-        conf = _checked_confidence(confidence, len(pts))
-        sure = np.where(conf >= sure_confidence, lab, -1)
-        lab = np.where(conf >= min_confidence, lab, -1)
-    sym = ["none"] * K if symmetry is None else list(symmetry)
-    if len(sym) != K:
-        raise InputError(f"symmetry must name {K} parts, got {len(sym)}")
-    stats = table[np.arange(K)[:, None], np.arange(3)[None, :], seen_pattern(T, S)]  # (K, 3, 3) for this view
-    with np.errstate(invalid="ignore"):  # NaN (not measured) compares False
-        fit = (stats[..., 0] >= min_ratio) & (stats[..., 2] <= max_ratio) & (stats[..., 1] > 0)
-    fit[np.array([k for k in range(K) if sym[k] != "none"], dtype=np.int64), 0::2] = False  # x, z of a y-symmetric part
-    fit &= _part_mask(parts, K)[:, None]
+    sure = _confident(lab, confidence, sure_confidence)
+    lab = _confident(lab, confidence, min_confidence)
+    stats, fit = _seen_axes(table, T, S, _symmetries(symmetry, K), _part_mask(parts, K), min_ratio, max_ratio)
     fitted = np.zeros((K, 3), dtype=bool)
     if not fit.any():
         return T, S, fitted
     fit &= (occluded_fraction(T, S) <= max_occluded)[:, None]
     for k in np.flatnonzero(fit.any(1)):  # a handful of parts; the point work is vectorised
         R, t = T[k, :3, :3], T[k, :3, 3]
-        ranges = []
-        for chosen in (sure, lab):  # the sure points (the least extent), the plausible ones (the most)
-            sel = chosen == k
-            q = (pts[sel] - t) @ R  # the part's points in its voted frame
-            if connect_factor is not None and len(q):
-                q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
-            ranges.append(np.quantile(q, [quantile, 1.0 - quantile], axis=0) if len(q) >= min_points else None)
-        if ranges[1] is None:
+        # the sure points bound the extent from below, the plausible ones from above
+        least_r, most_r = (
+            _robust_range(pts, c == k, T[k], 0.5 * S[k], quantile, connect_factor, min_points) for c in (sure, lab)
+        )
+        if most_r is None:
             continue
-        if ranges[0] is None:
-            ranges[0] = ranges[1]
+        least_r = most_r if least_r is None else least_r
         med = np.where(fit[k], stats[k, :, 1], 1.0)
-        least, most = (np.diff(r, axis=0)[0] / med for r in ranges)
+        least, most = (np.diff(r, axis=0)[0] / med for r in (least_r, most_r))
         least = np.minimum(least, most)
         new = np.clip(S[k], least, most)
-        mid = np.where(S[k] > most, ranges[1].mean(0), np.where(S[k] < least, ranges[0].mean(0), 0.0))
+        mid = np.where(S[k] > most, most_r.mean(0), np.where(S[k] < least, least_r.mean(0), 0.0))
         a = fit[k] & (new >= min_seen * S[k]) & (new != S[k])
         S[k] = np.where(a, new, S[k])
         T[k, :3, 3] = t + R @ np.where(a, mid, 0.0)
         fitted[k] = a
     return T, S, fitted
-
-
-ANCHOR_MAX_SPREAD = 0.03
-"""A faced face is anchored to the points only where the training views' gap between it and the points varied
-by at most this (the 10th to 90th percentile, in part box diagonals)."""
 
 
 def anchor_faced_faces(
@@ -281,33 +289,26 @@ def anchor_faced_faces(
     parts: Sequence[int] | None = None,
     keep=None,
     quantile: float = SEEN_QUANTILE,
-    min_points: int = GROW_MIN_POINTS,
-    connect_factor: float | None = GROW_CONNECT_FACTOR,
+    min_points: int = _P.min_points,
+    connect_factor: float | None = _P.connect_factor,
     confidence=None,
-    min_confidence: float = FIT_MIN_CONFIDENCE,
-    max_spread: float = ANCHOR_MAX_SPREAD,
+    min_confidence: float = _P.plausible_confidence,
+    max_spread: float = _P.anchor_max_spread,
     max_occluded: float = SEEN_MAX_OCCLUDED,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box centres moved so that the faces the camera faces sit where the part's points put them.
 
-    A part's voted centre can sit off along an axis it is not seen whole along (the depth of a spectacle frame
-    seen from behind: its points show only its back), while the face turned to the camera is in plain view.
-    Along every axis where the camera lies beyond a face of the voted box (its box-frame coordinate beyond half
-    the extent), and where the training views' gap between that face and the points (``faced_gap``:
-    :attr:`ucope.priors.PartPrior.faced_gap`) varied by at most ``max_spread`` part diagonals, the face is put
-    at the points' extreme towards the camera (their ``1 - quantile`` quantile) plus the median gap, and the
-    centre half the voted extent behind it. Sizes and rotations are kept.
+    Along every axis where the camera lies beyond a face of the voted box (its box-frame coordinate beyond half the
+    extent), and where the training views' gap between that face and the points (``faced_gap``) varied by at most
+    ``max_spread`` part diagonals, the face is put at the points' extreme towards the camera (their ``1 - quantile``
+    quantile) plus the median gap, and the centre half the voted extent behind it. Sizes and rotations are kept.
     Left alone: parts not in ``parts``, axes marked in ``keep``, parts a neighbour's box hides (more than
-    ``max_occluded``, :func:`ucope.geometry.boxes.occluded_fraction`), parts with fewer than ``min_points``
-    points (or joined to their box, :func:`joined_to_box`).
+    ``max_occluded``), parts with fewer than ``min_points`` points joined to their box.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` the parts' poses (camera frame, metres).
-        size_m: ``(K, 3)`` their box extents (metres, > 0).
-        points: ``(P, 3)`` the cloud the labels belong to (camera frame, metres).
-        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        cam_from_part, size_m, points, labels: as :func:`grow_to_points`.
         faced_gap: ``(K, 3, 2, 3)`` per part, axis and faced side (-, +) the 10th, 50th and 90th percentiles
-            of the gap, NaN where not measured (:attr:`ucope.priors.CategoryPriors.faced_gap`).
+            of the gap (part box diagonals), NaN where not measured (:attr:`ucope.priors.CategoryPriors.faced_gap`).
         parts: the parts that may move (``None``: all).
         keep: ``(K, 3)`` bool, axes to leave alone (those :func:`fit_seen_extents` set); ``None``: none.
         confidence, min_confidence, connect_factor: as :func:`fit_seen_extents`.
@@ -322,27 +323,19 @@ def anchor_faced_faces(
     """
     T, S, pts, lab = _checked(cam_from_part, size_m, points, labels)
     K = len(T)
-    table = np.asarray(faced_gap, dtype=np.float64)
-    if table.shape != (K, 3, 2, 3) or np.isinf(table).any():
-        raise InputError(f"faced_gap must have shape ({K}, 3, 2, 3) with finite entries (NaN: not measured), got {table.shape}")
-    movable = _part_mask(parts, K)
+    table = _checked_table(faced_gap, (K, 3, 2, 3), "faced_gap", negative=True)
     hold = np.zeros((K, 3), dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
     if hold.shape != (K, 3):
         raise InputError(f"keep must have shape ({K}, 3), got {hold.shape}")
-    if not 0.0 <= quantile < 0.5:
-        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    _check_range_settings(quantile, connect_factor)
     if not max_spread >= 0:
         raise InputError(f"max_spread must be >= 0, got {max_spread!r}")
-    if connect_factor is not None and not connect_factor > 0:
-        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
-    if confidence is not None:
-        conf = _checked_confidence(confidence, len(pts))
-        lab = np.where(conf >= min_confidence, lab, -1)
+    lab = _confident(lab, confidence, min_confidence)
     cam = -np.einsum("kji,kj->ki", T[:, :3, :3], T[:, :3, 3])  # the camera in each part's frame
     plus = (cam > 0).astype(np.int64)
     stats = table[np.arange(K)[:, None], np.arange(3)[None, :], plus]  # (K, 3, 3): the faced side's gaps
     with np.errstate(invalid="ignore"):  # NaN (not measured) compares False
-        move = (np.abs(cam) > 0.5 * S) & (stats[..., 2] - stats[..., 0] <= max_spread) & movable[:, None] & ~hold
+        move = (np.abs(cam) > 0.5 * S) & (stats[..., 2] - stats[..., 0] <= max_spread) & _part_mask(parts, K)[:, None] & ~hold
     anchored = np.zeros((K, 3), dtype=bool)
     if not move.any():
         return T, anchored
@@ -351,51 +344,15 @@ def anchor_faced_faces(
         sel = lab == k
         if np.count_nonzero(sel) < min_points:
             continue
-        R, t = T[k, :3, :3], T[k, :3, 3]
-        q = (pts[sel] - t) @ R
-        if connect_factor is not None:
-            q = q[joined_to_box(q, 0.5 * S[k], connect_factor)]
-            if len(q) < min_points:
-                continue
-        lo, hi = np.quantile(q, [quantile, 1.0 - quantile], axis=0)
+        rng = _robust_range(pts, sel, T[k], 0.5 * S[k], quantile, connect_factor, min_points)
+        if rng is None:
+            continue
         sign = np.where(plus[k] == 1, 1.0, -1.0)
-        face = np.where(plus[k] == 1, hi, lo) + sign * stats[k, :, 1] * np.linalg.norm(S[k])
+        face = np.where(plus[k] == 1, rng[1], rng[0]) + sign * stats[k, :, 1] * np.linalg.norm(S[k])
         shift = np.where(move[k], face - sign * 0.5 * S[k], 0.0)
-        T[k, :3, 3] = t + R @ shift
+        T[k, :3, 3] = T[k, :3, 3] + T[k, :3, :3] @ shift
         anchored[k] = move[k]
     return T, anchored
-
-
-SIZE_MAX_SPREAD = 0.03
-"""A child's extent follows its parent's only along axes where the training views' size ratio varied by at most
-this (standard deviation over the mean, ``JointPrior.child_size_spread``)."""
-
-
-SIZE_MIN_CHANGE = 0.15
-"""... and only where the parent's measured extent puts the child's more than this fraction away from its voted
-one (a child voted plausibly keeps its own extent). The shipped dishwasher (fitted extents on), 200 test and 100
-OOD views: 81 / 60 % success at 0, 82.5 / 61 % at 0.15, 82 / 57 % without carrying."""
-
-
-def _checked_sizes(
-    cam_from_part, size_m, measured, priors: CategoryPriors, max_spread: float = 0.0, min_change: float = 0.0
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(T, S, measured)`` as float64 / bool copies after the checks the size carries and the stack share:
-    ``(K, 4, 4)`` finite poses, ``(K, 3)`` finite positive sizes and ``(K, 3)`` flags (``None``: none measured)
-    for the priors' ``K`` parts, ``max_spread`` and ``min_change`` ``>= 0``."""
-    T = np.array(cam_from_part, dtype=np.float64)
-    S = np.array(size_m, dtype=np.float64)
-    K = priors.num_parts
-    done = np.zeros((K, 3), dtype=bool) if measured is None else np.array(measured, dtype=bool)
-    if T.shape != (K, 4, 4) or S.shape != (K, 3):
-        raise InputError(f"cam_from_part and size_m must have shapes ({K}, 4, 4) and ({K}, 3), got {T.shape} and {S.shape}")
-    if done.shape != (K, 3):
-        raise InputError(f"measured must have shape ({K}, 3), got {done.shape}")
-    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
-        raise InputError("cam_from_part must be finite and size_m finite and positive")
-    if not (max_spread >= 0 and min_change >= 0):
-        raise InputError(f"max_spread and min_change must be >= 0, got {max_spread!r}, {min_change!r}")
-    return T, S, done
 
 
 def carry_child_sizes(
@@ -403,25 +360,22 @@ def carry_child_sizes(
     size_m,
     measured,
     priors: CategoryPriors,
-    max_spread: float = SIZE_MAX_SPREAD,
-    min_change: float = SIZE_MIN_CHANGE,
+    max_spread: float = _P.carry_max_spread,
+    min_change: float = _P.carry_min_change,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Children's extents carried from their parents' measured ones through the joints.
 
-    A dishwasher door is as wide as its body and 0.86 of its height in every training view; where the body's
-    extents were measured from its points (``measured``: :func:`ucope.stages.extents.fit_seen_extents`) and the door
-    was hidden from fitting, the door's voted extents can stay those of the training doors. For each joint and
-    each axis whose size ratio child / parent varied by at most ``max_spread`` (relative, ``JointPrior.
-    child_size_spread``), measured on the parent and not on the child, the child's extent becomes the ratio
-    (``child_size_ratio``) times the parent's where that differs from the voted one by more than ``min_change``
-    (relative). A revolute child whose extents changed is then placed through the joint from its parent: its
-    centre where the joint axis passes in both unit boxes (``pivot_in_parent`` / ``pivot_in_child``), its
-    rotation kept. Parents are handled before children (the joints' order), so a carried child carries on.
+    For each joint and each axis whose size ratio child / parent varied by at most ``max_spread`` over the training
+    views (standard deviation over the mean, ``JointPrior.child_size_spread``), measured on the parent and not on the
+    child, the child's extent becomes the ratio (``child_size_ratio``) times the parent's where that differs from the
+    voted one by more than ``min_change`` (relative). A revolute child whose extents changed is then placed through
+    the joint from its parent: its centre where the joint axis passes in both unit boxes (``pivot_in_parent`` /
+    ``pivot_in_child``), its rotation kept. Parents are handled before children, so a carried child carries on.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres).
         size_m: ``(K, 3)`` box extents (metres, > 0).
-        measured: ``(K, 3)`` bool, which extents were measured from the points.
+        measured: ``(K, 3)`` bool, which extents were measured from the points (:func:`fit_seen_extents`).
         priors: the category's priors; joints without ``child_size_ratio`` are skipped.
 
     Returns:
@@ -451,32 +405,6 @@ def carry_child_sizes(
     return T, S, carried
 
 
-@dataclass(frozen=True)
-class FitBoxesParams:
-    """Attributes:
-    grow: widen boxes to hold their points (:func:`grow_to_points`).
-    fit: set the axes views like this one see whole from the points (:func:`fit_seen_extents`), then carry a
-        child's extents from its measured parent (:func:`carry_child_sizes`); only parts whose calibrated score
-        is below ``fit_below`` (every part without a calibration), only clouds of ``fit_min_input`` points or more.
-    anchor: put the root part's faces that the camera faces where its points are (:func:`anchor_faced_faces`),
-        only for clouds of ``anchor_min_input`` points or more whose surface noise is at most ``anchor_max_noise_m``.
-    """
-
-    grow: bool = True
-    fit: bool = True
-    anchor: bool = True
-    fit_below: float = 0.9
-    fit_min_input: int = 1000
-    anchor_min_input: int = 600
-    anchor_max_noise_m: float = 1.5e-3
-
-    def __post_init__(self) -> None:
-        if not (0.0 <= self.fit_below <= 1.0 and self.anchor_max_noise_m >= 0.0):
-            raise InputError(
-                f"fit_below must be in [0, 1] and anchor_max_noise_m >= 0, got {self.fit_below}, {self.anchor_max_noise_m}"
-            )
-
-
 @stage(
     "fit_boxes",
     kind="learned-prior",
@@ -486,22 +414,29 @@ class FitBoxesParams:
 def _fit_boxes(state: PoseState, params: FitBoxesParams) -> None:
     """Boxes measured from the points: widened to hold them, the axes a view sees whole set from them, the root's
     faced faces put on them."""
-    T, S, pri = state.cam_from_part, state.size_m, state.priors
-    pts, labels, conf = state.points, state.seg_labels, state.confidence
-    if params.grow:
-        T, S, _ = grow_to_points(T, S, pts, labels, state.symmetry, confidence=conf)
-    if params.fit and pri.seen_extent is not None and state.num_input >= params.fit_min_input:
-        unsure = (
-            np.flatnonzero(state.score < params.fit_below) if state.calibration is not None and state.score is not None else None
+    T, S, pri, p = state.cam_from_part, state.size_m, state.priors, params
+    pts, labels, sym = state.points, state.seg_labels, state.symmetry
+    near = dict(min_points=p.min_points, connect_factor=p.connect_factor, confidence=state.confidence)
+    if p.grow:
+        T, S, _ = grow_to_points(
+            T, S, pts, labels, sym, p.grow_quantile, p.grow_thin_ratio, min_confidence=p.sure_confidence, **near
         )
-        T, S, state.fitted = fit_seen_extents(T, S, pts, labels, pri.seen_extent, state.symmetry, parts=unsure, confidence=conf)
+    if p.fit and pri.seen_extent is not None and state.num_input >= p.fit_min_input:
+        unsure = np.flatnonzero(state.score < p.fit_below) if state.calibration is not None and state.score is not None else None
+        ratios = dict(
+            min_ratio=p.fit_min_ratio, max_ratio=p.fit_max_ratio, min_seen=p.fit_min_seen, sure_confidence=p.sure_confidence
+        )
+        T, S, state.fitted = fit_seen_extents(
+            T, S, pts, labels, pri.seen_extent, sym, unsure, min_confidence=p.plausible_confidence, **ratios, **near
+        )
         if state.fitted.any():
-            T, S, _ = carry_child_sizes(T, S, state.fitted, pri)
+            T, S, _ = carry_child_sizes(T, S, state.fitted, pri, p.carry_max_spread, p.carry_min_change)
     if (
-        params.anchor
+        p.anchor
         and pri.faced_gap is not None
-        and state.num_input >= params.anchor_min_input
-        and (state.noise_m is None or state.noise_m() <= params.anchor_max_noise_m)
+        and state.num_input >= p.anchor_min_input
+        and (state.noise_m is None or state.noise_m() <= p.anchor_max_noise_m)
     ):  # the root only: a child's points end at a seam
-        T, _ = anchor_faced_faces(T, S, pts, labels, pri.faced_gap, parts=(0,), keep=state.fitted, confidence=conf)
+        faces = dict(min_confidence=p.plausible_confidence, max_spread=p.anchor_max_spread)
+        T, _ = anchor_faced_faces(T, S, pts, labels, pri.faced_gap, (0,), state.fitted, **faces, **near)
     state.cam_from_part, state.size_m = T, S

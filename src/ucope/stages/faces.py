@@ -21,54 +21,42 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 from ..geometry.normals import estimate_normals
-from ..geometry.transforms import rotation_angle_deg
-from ..priors import CategoryPriors
 from ..vocab import JointType
 from .base import PoseState, stage
 
-FACE_TOLERANCE_DEG = 20.0
-"""A normal counts for the box axis nearest to it when within this angle of it."""
+
+@dataclass(frozen=True)
+class AlignFacesParams:
+    """Attributes:
+    tolerance_deg: a normal counts for the signed box axis nearest to it when within this angle of it.
+    iterations: rounds of matching and solving (the matches change as the rotation moves).
+    prior_weight: weight of each of the last round's axes in a round, per matched normal (0.1: ten matched normals
+        weigh as much as one axis).
+    min_points: a part with fewer matched normals keeps its voted rotation.
+    normal_k: neighbours of a normal among the network's points (:func:`face_normals`), scaled to the share of
+        distinct points, never fewer than ``sparse_min_k``.
+    """
+
+    tolerance_deg: float = 20.0
+    iterations: int = 5
+    prior_weight: float = 0.1
+    min_points: int = 30
+    normal_k: int = 16
+    sparse_min_k: int = 6
 
 
-FACE_ITERATIONS = 5
-"""Rounds of matching and solving (the matches change as the rotation moves)."""
+_P = AlignFacesParams()
 
 
-FACE_PRIOR_WEIGHT = 0.1
-"""Weight of each of the last round's axes in a round, per matched normal (0.1: ten matched normals weigh
-as much as one axis)."""
-
-
-FACE_NORMAL_K = 16
-"""Neighbours of the normals the alignment uses, which :func:`ucope.voting.vote_object` estimates among the
-network's points (1,024), not in the input cloud (4,096: the normals the network is given). Quantised depth
-lays a far, slanted face out in terraces of constant depth, and neighbourhoods of the dense cloud, each
-within one terrace, lean towards the camera's axis: by about 20 degrees on the side panel of a cabinet
-2.8 m away (depth steps of about 4.5 cm), where the alignment then locked onto them. Measured on 200
-test views each (success %, median rotation of the first part in degrees), input-cloud normals / 16 / 32 /
-64 neighbours among the network's points: drawer 37.5, 1.6 / 40.5, 1.9 / 39.5, 1.8 / 37, 2.2; camera 99,
-1.2 / 99, 1.5 / 98, 2.1 / 96.5, 3.0; dishwasher 83.5, 1.1 / 83, 0.7 / 82.5, 0.7 / 82.5, 1.2."""
-
-
-FACE_SPARSE_MIN_K = 6
-"""Fewest neighbours of a normal in a sparse cloud (:func:`face_normals`)."""
-
-
-FACE_MIN_POINTS = 30
-"""A part with fewer matched normals than this keeps its voted rotation."""
-
-
-def face_normals(points: np.ndarray, k: int = FACE_NORMAL_K) -> np.ndarray:
+def face_normals(points: np.ndarray, k: int = _P.normal_k, min_k: int = _P.sparse_min_k) -> np.ndarray:
     """Normals for :func:`align_to_faces`: PCA over each point's nearest neighbours among ``points``, each
-    distinct point counted once, and as many of them as ``k`` is of ``P`` (at least
-    :data:`FACE_SPARSE_MIN_K`): a sparse cloud reaches the network's point count by repeating points, and a
-    neighbourhood of copies of two or three points has no normal. On the robustness benchmark's 100-point
-    level (40 views, success %), with repeats / distinct points and 16 neighbours / this: camera 28 / 42 /
-    60, dishwasher 15 / 25 / 32; at 200 points 80 / 75 / 80 and 50 / 42 / 45.
+    distinct point counted once, and as many of them as ``k`` is of ``P`` (at least ``min_k``): a sparse cloud
+    reaches the network's point count by repeating points, and a neighbourhood of copies of two or three points
+    has no normal.
 
     Args:
         points: ``(P, 3)`` camera frame, metres, at least 3 distinct points; k: neighbours of a point in a
-            cloud of distinct points (clipped to their number).
+            cloud of distinct points (clipped to their number); min_k: the fewest neighbours.
 
     Returns:
         ``(P, 3)`` unit normals, any sign; repeated points share one.
@@ -80,17 +68,17 @@ def face_normals(points: np.ndarray, k: int = FACE_NORMAL_K) -> np.ndarray:
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise InputError(f"points must have shape (P, 3), got {pts.shape}")
     uniq, inverse = np.unique(pts, axis=0, return_inverse=True)
-    k = max(FACE_SPARSE_MIN_K, round(int(k) * len(uniq) / len(pts)))  # the same share of the object's points
+    k = max(int(min_k), round(int(k) * len(uniq) / len(pts)))  # the same share of the object's points
     return estimate_normals(uniq, k=min(k, len(uniq)), viewpoint=None)[inverse.reshape(-1)]
 
 
 def align_to_faces(
     cam_from_part_rot: np.ndarray,
     normals: np.ndarray,
-    tolerance_deg: float = FACE_TOLERANCE_DEG,
-    iterations: int = FACE_ITERATIONS,
-    prior_weight: float = FACE_PRIOR_WEIGHT,
-    min_points: int = FACE_MIN_POINTS,
+    tolerance_deg: float = _P.tolerance_deg,
+    iterations: int = _P.iterations,
+    prior_weight: float = _P.prior_weight,
+    min_points: int = _P.min_points,
 ) -> tuple[np.ndarray, int]:
     """A part's rotation turned so that its box axes meet the surface normals of its points.
 
@@ -163,9 +151,7 @@ def align_parts_to_faces(
 
     A part joined to its parent by a prismatic joint keeps its rotation relative to the parent (a drawer
     slides, it does not turn): listed in ``follow`` it takes the turn of its parent's alignment instead
-    of one of its own (a drawer's few front-plate normals fix it worse than the cabinet's do: on 100 test
-    views of the drawer, aligned on their own the drawers were within 10 degrees in 73-78 % of the
-    views against 82 % voted, while the cabinet went 82 -> 86 %).
+    of one of its own.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` voted part poses (camera frame, metres).
@@ -207,47 +193,11 @@ def align_parts_to_faces(
     return T, turned
 
 
-FACE_RESET_MAX_DEG = 30.0
-"""After the kinematic refinement, an aligned root within this angle of its aligned rotation is turned back
-onto it (the refinement moved it); farther (a flip or an upright carry turned it) it is aligned afresh."""
-
-
-def root_back_to_faces(T: np.ndarray, joint_axis: np.ndarray, faces: tuple, priors: CategoryPriors):
-    """The refined tree turned as one so that its root is on its faces again: back onto the root's rotation
-    aligned before the joints (``faces[2]``) when the refinement left it within :data:`FACE_RESET_MAX_DEG`,
-    else aligned afresh from where the refinement put it (every other part follows through the tree, the
-    joint axes too, so states and consistency are kept). Aligning afresh from the refined rotation instead
-    let the cabinet lock onto normals that lean off its faces (a far side panel's, quantised in depth:
-    :data:`ucope.stages.faces.FACE_NORMAL_K`) on some drawer views: the refinement had moved it 5-10
-    degrees, enough to bring them inside the matching cone."""
-    T = np.array(T, np.float64)
-    R_ref, R_aligned = T[0, :3, :3].copy(), faces[2]
-    if rotation_angle_deg(R_aligned, R_ref) <= FACE_RESET_MAX_DEG:
-        turn = R_aligned @ R_ref.T
-    else:
-        tree = [(jp.child, jp.parent) for jp in priors.joints]
-        T2, _ = align_parts_to_faces(T, faces[0], faces[1], [p.symmetry for p in priors.parts], tree)
-        turn = T2[0, :3, :3] @ R_ref.T
-    T[:, :3, :3] = np.einsum("ij,kjl->kil", turn, T[:, :3, :3])
-    turned = np.full(len(T), not np.allclose(turn, np.eye(3)))
-    return T, np.asarray(joint_axis, np.float64) @ turn.T, turned
-
-
-@dataclass(frozen=True)
-class AlignFacesParams:
-    """Attributes: as :func:`align_to_faces`."""
-
-    tolerance_deg: float = FACE_TOLERANCE_DEG
-    iterations: int = FACE_ITERATIONS
-    prior_weight: float = FACE_PRIOR_WEIGHT
-    min_points: int = FACE_MIN_POINTS
-
-
 @stage("align_faces", kind="geometry", params=AlignFacesParams)
 def _align_faces(state: PoseState, params: AlignFacesParams) -> None:
     """Each part's rotation turned so that its box axes meet the normals of its flat faces (a drawer takes its
     cabinet's turn)."""
-    nrm = face_normals(np.asarray(state.points, np.float64).reshape(-1, 3))
+    nrm = face_normals(np.asarray(state.points, np.float64).reshape(-1, 3), params.normal_k, params.sparse_min_k)
     follow = [(j.child, j.parent) for j in state.priors.joints if j.type == JointType.PRISMATIC]
     state.cam_from_part, _ = align_parts_to_faces(
         state.cam_from_part,

@@ -29,10 +29,37 @@ from .base import PoseState, stage
 from .support import (
     _HALF_TURNS,
     FRONT_MIN_CONFIDENCE,
+    SHAPE_CLIP,
     _checked_camera,
-    _checked_confidence,
+    _confident,
     _subtree,
 )
+
+
+@dataclass(frozen=True)
+class FlipsParams:
+    """Attributes:
+    shape_margin: a rigid part's best half turn replaces its voted rotation where its template misfit is below this
+        times the voted one's; shape_clip: the point-to-template distance cap (unit-box sizes); shape_max_points: the
+        most points of a part compared (:func:`resolve_shape_flips`).
+    front_min_share: a parent whose front faces the camera while its prismatic children show fewer than this share
+        of the object's (confident) points is taken as seen from behind; front_min_points: one whose children show
+        at least this many points, their median behind its centre along the slide, as turned round;
+        front_max_deg: the front counts as faced only where the camera lies within this angle of its normal, seen
+        along the parent's upright axis; front_min_confidence: points less likely to be the object do not count
+        (:func:`resolve_front_flips`).
+    """
+
+    shape_margin: float = 0.75
+    shape_clip: float = SHAPE_CLIP
+    shape_max_points: int = 1024
+    front_min_share: float = 0.02
+    front_min_points: int = 30
+    front_max_deg: float = 45.0
+    front_min_confidence: float = FRONT_MIN_CONFIDENCE
+
+
+_P = FlipsParams()
 
 
 def _placement_flips(T: np.ndarray, size: np.ndarray, priors: CategoryPriors, flipped: np.ndarray) -> None:
@@ -55,13 +82,8 @@ def _placement_flips(T: np.ndarray, size: np.ndarray, priors: CategoryPriors, fl
             flipped[k] = True
 
 
-SHAPE_CLIP = 0.25
-"""Point-to-template distances (unit-box sizes) are clipped here before averaging (:func:`_shape_misfit`): a few
-stray points do not decide a fit."""
-
-
 def _shape_misfit(
-    tree: cKDTree, points: np.ndarray, cam_from_box: np.ndarray, size_m: np.ndarray, clip: float = SHAPE_CLIP
+    tree: cKDTree, points: np.ndarray, cam_from_box: np.ndarray, size_m: np.ndarray, clip: float = _P.shape_clip
 ) -> float:
     """Mean distance (unit-box sizes, each clipped at ``clip``) from ``points`` ``(N, 3)``, brought into the box
     ``cam_from_box`` ``(4, 4)`` of extents ``size_m`` ``(3,)``, to the nearest point of a shape template's k-d tree."""
@@ -90,9 +112,9 @@ def resolve_shape_flips(
     part_points: list,
     priors: CategoryPriors,
     shapes: ShapeIndex | None = None,
-    margin: float = 0.75,
-    clip: float = SHAPE_CLIP,
-    max_points: int = 1024,
+    margin: float = _P.shape_margin,
+    clip: float = _P.shape_clip,
+    max_points: int = _P.shape_max_points,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Turn back parts whose voted rotation is a half turn (about one of the part's axes) away from
     the pose their own points fit best (beyond the paper).
@@ -212,80 +234,9 @@ def resolve_joint_flips(
     return T, flipped
 
 
-FLIP_MIN_SHARE = 0.02
-"""A parent whose front (the face its prismatic children slide out of) faces the camera while its children show
-fewer than this share of the object's (confident) points is taken as seen from behind (:func:`resolve_front_flips`).
-At the true poses of the shipped drawer's 200 test and 100 OOD views, every view that faced a cabinet's front showed
-its drawers in at least 388 of 4,096 points (9.5 %)."""
-
-
-FLIP_MIN_POINTS = 30
-"""... and one whose children show at least this many (confident) points, their median behind the parent's centre
-along the slide, is taken as turned round. At the true poses of the same views, the median of the drawers' points
-along the slide lay at least 0.496 of the cabinet's depth in front of its centre (views with 30 or more)."""
-
-
-FLIP_MAX_DEG = 45.0
-"""The front counts as faced only where the camera lies within this angle of the front's normal, seen from above
-(about the parent's upright axis), so that a parent seen from the side, whose drawers may hide behind its wall,
-is never turned on this count."""
-
-
-def resolve_front_flips(
-    cam_from_part,
-    joint_axis,
-    joint_pivot,
-    points,
-    labels,
-    priors: CategoryPriors,
-    confidence=None,
-    camera=(0.0, 0.0, 0.0),
-    min_share: float = FLIP_MIN_SHARE,
-    min_points: int = FLIP_MIN_POINTS,
-    max_deg: float = FLIP_MAX_DEG,
-    min_confidence: float = FRONT_MIN_CONFIDENCE,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Undo the half turn of a parent and its prismatic children that puts its front where its back is.
-
-    A closed cabinet is nearly a box: seen from behind, voting can turn it round, its drawers with it, and the
-    estimate shows the front to the camera (two of the shipped drawer's 39 back test views, 180 degrees off);
-    seen from the front, the same can happen the other way (one front view). The drawers decide it. They slide
-    out of the front, so their points lie at or in front of it, and a camera facing the front sees them
-    (:data:`FLIP_MIN_POINTS`, :data:`FLIP_MIN_SHARE`). For each parent whose prismatic children all slide along
-    one of its box axes ``+a``:
-
-    * where the children show at least ``min_points`` (confident) points and their median along ``a`` lies behind
-      the parent's centre, or
-    * where the camera lies ahead of the parent's centre along ``+a``, within ``max_deg`` of that direction seen
-      along the parent's upright axis (the centre, not the face: a turned-round box may be mis-sized along ``a``),
-      and the children show under ``min_share`` of the object's (confident) labelled points,
-
-    the parent and every part below it are turned by a half turn about the parent's upright axis
-    (``PartPrior.upright_axis``; else the axis its children are stacked along, ``StackPrior.axis``; else its first
-    box axis across ``a``) through the parent's box centre, and the
-    axes and pivots of the joints below it with them. Joint states do not change (they are relative).
-
-    Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres).
-        joint_axis, joint_pivot: ``(J, 3)`` the joints' axes (unit) and pivots (metres), same frame; a pivot may be
-            NaN (a prismatic joint has none) and stays NaN.
-        points: ``(P, 3)`` the cloud (same frame, metres).
-        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
-        priors: the category's priors (joint tree, types, canonical axes, upright axes).
-        confidence: optional ``(P,)`` per point, the probability that it is the object; points below
-            ``min_confidence`` do not count.
-        camera: ``(3,)`` the camera's centre in the same frame.
-        min_share: in ``[0, 1]``; min_points: ``>= 1``; max_deg: in ``[0, 90]``.
-
-    Returns:
-        ``(cam_from_part, joint_axis, joint_pivot, flipped)``: new float64 arrays, and ``(K,)`` bool, the parts
-        turned.
-
-    Raises:
-        InputError: shapes that do not match the priors, non-finite poses, axes, points or camera,
-            labels that are not integers, confidences that are not one finite value per point, or a setting out
-            of its range.
-    """
+def _checked_front(cam_from_part, joint_axis, joint_pivot, points, labels, priors, camera, settings) -> tuple:
+    """``(T, u, piv, points, labels, camera)`` as float64 copies / arrays after :func:`resolve_front_flips`'s checks
+    (``settings``: ``min_share, min_points, max_deg, min_confidence``)."""
     K, J = priors.num_parts, priors.num_joints
     T = np.array(cam_from_part, dtype=np.float64)
     u = np.array(joint_axis, dtype=np.float64)
@@ -304,6 +255,7 @@ def resolve_front_flips(
     if lab.shape != (len(pts),) or not np.issubdtype(lab.dtype, np.integer):
         raise InputError(f"labels must be one integer per point, got {lab.dtype} of shape {lab.shape}")
     cam = _checked_camera(camera)
+    min_share, min_points, max_deg, min_confidence = settings
     if not (0.0 <= min_share <= 1.0 and int(min_points) >= 1 and 0.0 <= max_deg <= 90.0):
         raise InputError(
             f"min_share must lie in [0, 1], min_points be >= 1 and max_deg lie in [0, 90], got {min_share!r}, "
@@ -311,33 +263,98 @@ def resolve_front_flips(
         )
     if not 0.0 <= min_confidence <= 1.0:
         raise InputError(f"min_confidence must lie in [0, 1], got {min_confidence!r}")
-    if confidence is not None:
-        lab = np.where(_checked_confidence(confidence, len(lab)) >= min_confidence, lab, -1)
-    counted = (lab >= 0) & (lab < K)
+    return T, u, piv, pts, lab, cam
+
+
+def _front_turn_axis(T, p, kids, priors, pts, lab, n_object, cam, min_share, min_points, max_deg) -> int | None:
+    """The box axis of parent ``p`` to turn it round about (its upright axis; else its stack's; else its first axis
+    across the slide) where its prismatic children ``kids`` (all sliding along one of its box axes) say its front is
+    where its back is (:func:`resolve_front_flips`); ``None`` otherwise."""
+    axis = np.asarray(kids[0].axis, dtype=np.float64)
+    i = int(np.argmax(np.abs(axis)))
+    if abs(axis[i]) < 1.0 - 1e-6 or any(not np.allclose(jp.axis, axis, atol=1e-6) for jp in kids):
+        return None  # children that do not all slide along one box axis
+    sign = float(np.sign(axis[i]))
+    R, t = T[p, :3, :3], T[p, :3, 3]
+    own = np.isin(lab, [jp.child for jp in kids])
+    n_kids = int(np.count_nonzero(own))
+    stacked = [st.axis for st in priors.stacks if st.parent == p and st.axis != i]
+    up = priors.parts[p].upright_axis
+    b = up if up is not None and up != i else (stacked[0] if stacked else next(x for x in range(3) if x != i))
+    behind = n_kids >= int(min_points) and sign * float(np.median((pts[own] - t) @ R[:, i])) < 0.0
+    c = R.T @ (cam - t)  # the camera in the parent's frame
+    side = 3 - i - b  # the third axis: across the front, seen from above
+    ahead = sign * c[i]
+    faces = ahead > 0.0 and np.degrees(np.arctan2(abs(c[side]), ahead)) <= max_deg
+    bare = faces and n_kids < min_share * n_object
+    return b if behind or bare else None
+
+
+def resolve_front_flips(
+    cam_from_part,
+    joint_axis,
+    joint_pivot,
+    points,
+    labels,
+    priors: CategoryPriors,
+    confidence=None,
+    camera=(0.0, 0.0, 0.0),
+    min_share: float = _P.front_min_share,
+    min_points: int = _P.front_min_points,
+    max_deg: float = _P.front_max_deg,
+    min_confidence: float = _P.front_min_confidence,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Undo the half turn of a parent and its prismatic children that puts its front where its back is.
+
+    A closed cabinet is nearly a box, and voting can turn it round with its drawers. The drawers decide it: they
+    slide out of the front, so their points lie at or in front of it, and a camera facing the front sees them. For
+    each parent whose prismatic children all slide along one of its box axes ``+a``:
+
+    * where the children show at least ``min_points`` (confident) points and their median along ``a`` lies behind
+      the parent's centre, or
+    * where the camera lies ahead of the parent's centre along ``+a``, within ``max_deg`` of that direction seen
+      along the parent's upright axis, and the children show under ``min_share`` of the object's (confident)
+      labelled points,
+
+    the parent and every part below it are turned by a half turn about the parent's upright axis
+    (``PartPrior.upright_axis``; else the axis its children are stacked along, ``StackPrior.axis``; else its first
+    box axis across ``a``) through the parent's box centre, and the axes and pivots of the joints below it with them.
+    Joint states do not change (they are relative).
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres).
+        joint_axis, joint_pivot: ``(J, 3)`` the joints' axes (unit) and pivots (metres), same frame; a pivot may be
+            NaN (a prismatic joint has none) and stays NaN.
+        points: ``(P, 3)`` the cloud (same frame, metres).
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        priors: the category's priors (joint tree, types, canonical axes, upright axes).
+        confidence: optional ``(P,)`` per point, the probability that it is the object; points below
+            ``min_confidence`` do not count.
+        camera: ``(3,)`` the camera's centre in the same frame.
+        min_share: in ``[0, 1]``; min_points: ``>= 1``; max_deg: in ``[0, 90]``.
+
+    Returns:
+        ``(cam_from_part, joint_axis, joint_pivot, flipped)``: new float64 arrays, and ``(K,)`` bool, the parts
+        turned.
+
+    Raises:
+        InputError: shapes that do not match the priors, non-finite poses, axes, points or camera, labels that are
+            not integers, confidences that are not one finite value per point, or a setting out of its range.
+    """
+    K = priors.num_parts
+    settings = (min_share, min_points, max_deg, min_confidence)
+    T, u, piv, pts, lab, cam = _checked_front(cam_from_part, joint_axis, joint_pivot, points, labels, priors, camera, settings)
+    lab = _confident(lab, confidence, min_confidence)
+    n_object = int(np.count_nonzero((lab >= 0) & (lab < K)))
     flipped = np.zeros(K, dtype=bool)
     for p in range(K):  # a handful of parts; the point work is vectorised
         kids = [jp for jp in priors.joints if jp.parent == p and jp.type == JointType.PRISMATIC]
         if not kids:
             continue
-        axis = np.asarray(kids[0].axis, dtype=np.float64)
-        i = int(np.argmax(np.abs(axis)))
-        if abs(axis[i]) < 1.0 - 1e-6 or any(not np.allclose(jp.axis, axis, atol=1e-6) for jp in kids):
-            continue  # children that do not all slide along one box axis
-        sign = float(np.sign(axis[i]))
-        R, t = T[p, :3, :3], T[p, :3, 3]
-        own = np.isin(lab, [jp.child for jp in kids])
-        n_kids = int(np.count_nonzero(own))
-        stacked = [st.axis for st in priors.stacks if st.parent == p and st.axis != i]
-        up = priors.parts[p].upright_axis
-        b = up if up is not None and up != i else (stacked[0] if stacked else next(x for x in range(3) if x != i))
-        behind = n_kids >= int(min_points) and sign * float(np.median((pts[own] - t) @ R[:, i])) < 0.0
-        c = R.T @ (cam - t)  # the camera in the parent's frame
-        side = 3 - i - b  # the third axis: across the front, seen from above
-        ahead = sign * c[i]
-        faces = ahead > 0.0 and np.degrees(np.arctan2(abs(c[side]), ahead)) <= max_deg
-        bare = faces and n_kids < min_share * int(np.count_nonzero(counted))
-        if not (behind or bare):
+        b = _front_turn_axis(T, p, kids, priors, pts, lab, n_object, cam, min_share, min_points, max_deg)
+        if b is None:
             continue
+        R, t = T[p, :3, :3], T[p, :3, 3]
         below = _subtree(priors, p)
         Rf = rotation_about_axis(R[:, b], np.pi)
         T[below, :3, :3] = Rf @ T[below, :3, :3]
@@ -347,25 +364,6 @@ def resolve_front_flips(
         piv[js] = t + (piv[js] - t) @ Rf.T
         flipped[below] = True
     return T, u, piv, flipped
-
-
-@dataclass(frozen=True)
-class FlipsParams:
-    """Attributes:
-    shape_margin: the misfit ratio a rigid part's half turn must beat; shape_clip: the template distance cap (box
-        diagonals); shape_max_points: the most points compared.
-    front_min_share / front_min_points: the fewest drawer points (share of the object's, count) that decide a
-        cabinet's front; front_max_deg: the largest tilt of the cabinet's upright axis from the camera's for the
-        check; front_min_confidence: points less sure to be the object do not count.
-    """
-
-    shape_margin: float = 0.75
-    shape_clip: float = SHAPE_CLIP
-    shape_max_points: int = 1024
-    front_min_share: float = FLIP_MIN_SHARE
-    front_min_points: int = FLIP_MIN_POINTS
-    front_max_deg: float = FLIP_MAX_DEG
-    front_min_confidence: float = 0.5
 
 
 @stage(

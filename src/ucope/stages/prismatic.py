@@ -1,4 +1,4 @@
-"""Prismatic children (drawers) placed in their parent (a cabinet).
+"""Prismatic children (drawers) placed in their parent (a cabinet): the ``prismatic`` stage.
 
 * :func:`hold_prismatic_children` widens the parent's box across its children's slides until it holds their
   points as well as its own;
@@ -6,13 +6,15 @@
   training views' size ratio say it has (its leading face kept);
 * :func:`place_prismatic_children` puts each child where the training views always held it across the slide;
 * :func:`slide_to_fronts` slides each child along its slide until its leading face meets its points;
-* :func:`stack_hidden_children` puts a child of a stack (``CategoryPriors.stacks``) that shows too few points
-  against its nearest seen sibling, or under the parent's face.
+* :func:`stack_hidden_children` puts a child of a stack that shows too few points against its
+  nearest seen sibling, or under the parent's face.
 
-Each acts only where the model's priors measured what it needs. Camera frame, metres.
+Each acts only where the model's priors measured what it needs. Camera frame (or any other), metres.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,7 +22,6 @@ from ..errors import InputError
 from ..priors import CategoryPriors
 from ..vocab import JointType
 from .base import PoseState, stage
-from .extents import _checked_sizes
 from .support import (
     FRONT_MIN_CONFIDENCE,
     GROW_CONNECT_FACTOR,
@@ -28,32 +29,64 @@ from .support import (
     GROW_MIN_POINTS,
     GROW_QUANTILE,
     _checked_cloud,
-    _checked_confidence,
+    _checked_sizes,
+    _confident,
     connected_pieces,
     joined_to_box,
 )
 
-PLACE_MAX_SPREAD = 0.01
-"""A prismatic child is placed at its training mean along a parent axis across the joint's axis
-(:func:`place_prismatic_children`) where its placement there varied by less than this (standard
-deviation, in parent box diagonals: ``JointPrior.child_in_parent_spread``) over the training views: 1 %
-of a 1 m cabinet is 1 cm."""
+
+@dataclass(frozen=True)
+class PrismaticParams:
+    """Attributes:
+    hold_quantile / hold_min_points / hold_min_confidence: the parent's box holds the ``hold_quantile`` to
+        ``1 - hold_quantile`` range of its and its children's points at least ``hold_min_confidence`` likely to be
+        the object, where there are ``hold_min_points`` of them or more (:func:`hold_prismatic_children`).
+    depth_max_spread / depth_min_change: a child's extent along its slide follows its parent's where their ratio
+        varied by at most ``depth_max_spread`` over the training views (standard deviation over the mean) and where
+        that changes it by more than ``depth_min_change`` (relative; :func:`carry_prismatic_depths`).
+    place_max_spread: a child is put at its training place along the parent axes across its slide where that
+        place varied by less than this (standard deviation, parent box diagonals; :func:`place_prismatic_children`).
+    front_quantile / front_min_points / front_min_shift: a child with ``front_min_points`` points or more slides
+        until its leading face meets the ``1 - front_quantile`` quantile of its points along the slide, where they
+        stand more than ``front_min_shift`` of its box diagonal apart (:func:`slide_to_fronts`).
+    stack_min_points / stack_max_spread / stack_size_from_parent: a child of a stack with fewer points than
+        ``stack_min_points`` is placed against its siblings, in stacks whose gaps varied by at most
+        ``stack_max_spread`` (10th to 90th percentile, parent extents), sized from its parent first
+        (:func:`stack_hidden_children`).
+    min_confidence: points less likely to be the object do not count for the slide and the stack.
+    connect_factor: the longest step between joined points (median nearest-neighbour distances).
+    """
+
+    hold_quantile: float = GROW_QUANTILE
+    hold_min_points: int = GROW_MIN_POINTS
+    hold_min_confidence: float = GROW_MIN_CONFIDENCE
+    depth_max_spread: float = 0.1
+    depth_min_change: float = 0.1
+    place_max_spread: float = 0.01
+    front_quantile: float = 0.02
+    front_min_points: int = 10
+    front_min_shift: float = 0.1
+    stack_min_points: int = 10
+    stack_max_spread: float = 0.1
+    stack_size_from_parent: bool = True
+    min_confidence: float = FRONT_MIN_CONFIDENCE
+    connect_factor: float = GROW_CONNECT_FACTOR
+
+
+_P = PrismaticParams()
 
 
 def place_prismatic_children(
-    cam_from_part: np.ndarray, size_m: np.ndarray, priors: CategoryPriors, max_spread: float = PLACE_MAX_SPREAD
+    cam_from_part: np.ndarray, size_m: np.ndarray, priors: CategoryPriors, max_spread: float = _P.place_max_spread
 ) -> tuple[np.ndarray, np.ndarray]:
     """Put each prismatic child where the training views always had it across its joint's axis.
 
-    A drawer slides along its cabinet's z axis and sits in the middle of the cabinet left-right in every
-    training view (``JointPrior.child_in_parent_spread`` 0 along x), while its voted centre strays by
-    centimetres (a drawer is seen by its front alone, its box reaches deep into the cabinet). For each
-    prismatic joint (parents first) and each parent axis ``e_i`` across the joint's axis
-    (``|e_i . a| < 1e-6``) whose spread is below ``max_spread``, the child's centre is set, along ``R_p e_i``,
-    to the training mean ``child_in_parent[i] x |size_p|``; the other coordinates, the rotation and the
-    size are kept. Joint states (measured along the axis) do not change. A moved child carries nothing along
-    (its own children keep their places). Joints without a measured spread (revolute joints, priors
-    measured before it) are left alone.
+    For each prismatic joint (parents first) and each parent axis ``e_i`` across the joint's axis
+    (``|e_i . a| < 1e-6``) whose placement spread (``JointPrior.child_in_parent_spread``) is below ``max_spread``,
+    the child's centre is set, along ``R_p e_i``, to the training mean ``child_in_parent[i] x |size_p|``; the other
+    coordinates, the rotation and the size are kept, and so are the joint states (measured along the axis). A moved
+    child carries nothing along. Joints without a measured spread are left alone.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents.
@@ -89,69 +122,36 @@ def place_prismatic_children(
     return T, moved
 
 
-FRONT_QUANTILE = 0.02
-"""A prismatic child's leading face is put at this upper quantile of its points along the joint's axis
-(:func:`slide_to_fronts`). Drawers with at least 10 points on the drawer's 100 validation views, true poses
-and labels: seen from in front of their own front (170) the face lay a median 0.1 % of the drawer's box
-diagonal beyond it (10th-90th percentile -2.5 to 1.9 %; beyond the largest point by a median 1.0 %, which
-noise or a stray point took up to 21 cm past the face); seen from the side or behind (112), 1.0 % short of
-it (-3.3 to 0.4 %)."""
-
-
-FRONT_MIN_POINTS = 10
-"""A prismatic child with fewer points than this keeps its place along the axis."""
-
-
-FRONT_MIN_SHIFT = 0.1
-"""A child moves only where its front stands further than this (in its box diagonals) from its points: below
-it, the voted centre stands (a box voted 20 % too deep, its front put at the points, would carry half the
-excess depth into its centre)."""
-
-
-FRONT_CONNECT_FACTOR = 8.0
-"""Only the largest connected piece of a child's points counts (:func:`ucope.stages.support.connected_pieces`
-with this factor, the box growth's ``GROW_CONNECT_FACTOR``): stray points labelled as the drawer out in front
-of it would carry its front with them."""
-
-
 def slide_to_fronts(
     cam_from_part,
     size_m,
     points,
     labels,
     priors: CategoryPriors,
-    quantile: float = FRONT_QUANTILE,
-    min_points: int = FRONT_MIN_POINTS,
-    min_shift: float = FRONT_MIN_SHIFT,
-    connect_factor: float = FRONT_CONNECT_FACTOR,
+    quantile: float = _P.front_quantile,
+    min_points: int = _P.front_min_points,
+    min_shift: float = _P.front_min_shift,
+    connect_factor: float = _P.connect_factor,
     confidence=None,
-    min_confidence: float = FRONT_MIN_CONFIDENCE,
+    min_confidence: float = _P.min_confidence,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slide each prismatic child along its joint's axis until its leading face meets its points.
 
-    Nothing of a drawer lies beyond its front panel and handle along the direction it is pulled out (``+a``,
-    the joint's axis), and whatever part of it the camera sees reaches to that front: its front panel from
-    ahead, the panel's edge from the side, the top edges of the part that sticks out of the cabinet from
-    above and behind. Voting, which sees a front panel's points alike from either side of the panel, can put
-    the box on the wrong side of it: three of the shipped drawer's failed test views had a drawer with
-    200-600 points whose box stood 0.43-0.54 m out in front of the truth, the panel at its back. For each
-    prismatic joint whose child has at least ``min_points`` (confident) points in its largest connected piece
-    (stray points out in front of it do not count), the child's box face along
-    ``a`` is compared with the ``1 - quantile`` quantile of those points' coordinates along it; where they
-    lie more than ``min_shift`` of the child's box diagonal apart, the child moves along ``a`` until they
-    meet. Rotation and size are kept; the joint state changes by the move (the caller reads the states off
-    the boxes and clamps them into the limits). A moved child carries nothing along.
+    Nothing of a drawer lies beyond its front along the direction it is pulled out (``+a``, the joint's axis), and
+    whatever part of it the camera sees reaches to that front. For each prismatic joint whose child has at least
+    ``min_points`` (confident) points in its largest connected piece (:func:`ucope.stages.support.connected_pieces`;
+    stray points out in front of it do not count), the child's box face along ``a`` is compared with the
+    ``1 - quantile`` quantile of those points along ``a``; where they lie more than ``min_shift`` of the child's box
+    diagonal apart, the child moves along ``a`` until they meet. Rotation and size are kept; the joint state changes
+    by the move (the caller reads the states off the boxes). A moved child carries nothing along.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame or any other, metres).
-        size_m: ``(K, 3)`` box extents (metres, > 0).
+        cam_from_part: ``(K, 4, 4)`` part poses (metres); size_m: ``(K, 3)`` box extents (metres, > 0).
         points: ``(P, 3)`` the cloud (same frame, metres).
         labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (joint tree, types, canonical axes in the parent frame).
         quantile: in ``[0, 0.5)``; min_points: children with fewer (confident) points stay.
-        min_shift: ``>= 0``, in the child's box diagonals: a face nearer its points than this stays.
-        connect_factor: ``> 0``; only the largest connected piece of the child's points counts (two points
-            joined when at most this times their median nearest-neighbour distance apart).
+        min_shift: ``>= 0``, in the child's box diagonals; connect_factor: ``> 0``, as above.
         confidence: optional ``(P,)`` per point, the probability that it is the object; points below
             ``min_confidence`` do not count.
 
@@ -200,29 +200,24 @@ def hold_prismatic_children(
     labels,
     priors: CategoryPriors,
     confidence=None,
-    quantile: float = GROW_QUANTILE,
-    min_points: int = GROW_MIN_POINTS,
-    connect_factor: float = GROW_CONNECT_FACTOR,
-    min_confidence: float = GROW_MIN_CONFIDENCE,
+    quantile: float = _P.hold_quantile,
+    min_points: int = _P.hold_min_points,
+    connect_factor: float = _P.connect_factor,
+    min_confidence: float = _P.hold_min_confidence,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Widen a parent's box across its prismatic children's slides until it holds their points as well as its own.
 
-    A drawer slides in and out along its cabinet's z; left-right and up-down it stays inside the cabinet (every
-    training drawer was at most as wide and as tall as its cabinet: ``JointPrior.child_size_ratio`` at most 1 along
-    those axes). The drawer fronts span a chest's whole width while the cabinet's own points (its top, its sides)
-    may not, and the segmentation gives the fronts to the drawers: a sideboard wider than any the training had (OOD
-    split) got its cabinet voted 0.56-0.91x as wide in 10 of 11 views looked at, and its drawers centred on that.
-    For each parent with prismatic children, along each of its box axes across every such child's slide where each
-    child's size ratio is at most 1, the box is widened (never narrowed) until it holds the ``quantile`` to
-    ``1 - quantile`` range of the points segmented as the parent or one of those children (points sure to be the object,
-    ``confidence`` at least ``min_confidence``, in one connected piece with a point inside the parent's box,
+    A drawer stays inside its cabinet across its slide (every training drawer was at most as wide and as tall as its
+    cabinet: ``JointPrior.child_size_ratio`` at most 1 along those axes), while the segmentation may give the
+    drawer fronts points the cabinet's own do not span. For each parent with prismatic children, along each of its
+    box axes across every such child's slide where each child's size ratio is at most 1, the box is widened (never
+    narrowed) until it holds the ``quantile`` to ``1 - quantile`` range of the points segmented as the parent or one
+    of those children (``confidence`` at least ``min_confidence``, joined to the parent's box,
     :func:`ucope.stages.support.joined_to_box`), its centre moved to the middle of the widened range. Rotations and
-    the children are left as they are (the caller puts the children back in their place,
-    :func:`place_prismatic_children`).
+    the children are left as they are (:func:`place_prismatic_children` puts the children back in their place).
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame or any other, metres).
-        size_m: ``(K, 3)`` box extents (metres, > 0).
+        cam_from_part: ``(K, 4, 4)`` part poses (metres); size_m: ``(K, 3)`` box extents (metres, > 0).
         points: ``(P, 3)`` the cloud (same frame, metres).
         labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (joint tree, types, canonical axes, size ratios).
@@ -271,47 +266,31 @@ def hold_prismatic_children(
     return T, S, grown
 
 
-DEPTH_MAX_SPREAD = 0.1
-"""A prismatic child's extent along its joint's axis follows its parent's (:func:`carry_prismatic_depths`) where
-the training views' size ratio along that axis varied by at most this (standard deviation over the mean,
-``JointPrior.child_size_spread``). The shipped drawer's: 0.047 (drawers 0.95 as deep as their cabinet), while
-the depths it voted on its test views were a median 1.24x the truth where a drawer's translation failed."""
-
-
-DEPTH_MIN_CHANGE = 0.1
-"""... and only where the parent's extent puts the child's more than this fraction away from its voted one."""
-
-
 def carry_prismatic_depths(
     cam_from_part,
     size_m,
     priors: CategoryPriors,
     measured=None,
-    max_spread: float = DEPTH_MAX_SPREAD,
-    min_change: float = DEPTH_MIN_CHANGE,
+    max_spread: float = _P.depth_max_spread,
+    min_change: float = _P.depth_min_change,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Give each prismatic child the depth its parent's box says it has, keeping its leading face.
 
-    A drawer is seen by its front panel: its points say where its front is and how wide and tall it is, never
-    how deep it reaches into the cabinet, and its voted depth strays (on the shipped drawer's test views,
-    where a drawer's translation failed with its cabinet right, a median 1.24x the truth, the box centre
-    carried that far into the cabinet). The cabinet's box, seen from the side or above, holds its depth, and
-    every training drawer was a fixed fraction of it. For each prismatic joint whose axis lies along one of
-    the parent's box axes, where the child's extent along it over the parent's (``JointPrior.
-    child_size_ratio``) varied by at most ``max_spread`` (relative, ``child_size_spread``), and unless that
-    extent of the child was ``measured`` from its points, the child's extent along the axis becomes the ratio
-    times the parent's, where that differs from the voted one by more than ``min_change`` (relative). The
-    child's leading face (along ``+a``, the direction it is pulled out) stays where it was voted: the centre
-    moves by half the change along the axis. Rotations, the other extents and the joint states are kept (the
-    caller reads the states off the boxes). Parents are handled before children. Revolute joints, joints
-    without size ratios, and axes across the box axes are left alone.
+    A drawer's points say where its front is, rarely how deep it reaches into the cabinet, whose box holds that
+    depth. For each prismatic joint whose axis lies along one of the parent's box axes, where the child's extent
+    along it over the parent's (``JointPrior.child_size_ratio``) varied by at most ``max_spread`` (relative,
+    ``child_size_spread``), and unless that extent of the child was ``measured`` from its points, the child's extent
+    along the axis becomes the ratio times the parent's, where that differs from the voted one by more than
+    ``min_change`` (relative). The child's leading face (along ``+a``, the direction it is pulled out) stays: the
+    centre moves by half the change along the axis. Rotations, the other extents and the joint states are kept.
+    Parents are handled before children; revolute joints, joints without size ratios and axes across the box axes
+    are left alone.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame or any other, metres).
-        size_m: ``(K, 3)`` box extents (metres, > 0).
+        cam_from_part: ``(K, 4, 4)`` part poses (metres); size_m: ``(K, 3)`` box extents (metres, > 0).
         priors: the category's priors (joint tree, types, canonical axes, size ratios).
-        measured: optional ``(K, 3)`` bool, extents measured from the points (:func:`ucope.voting.
-            fit_seen_extents`), which stay.
+        measured: optional ``(K, 3)`` bool, extents measured from the points
+            (:func:`ucope.stages.extents.fit_seen_extents`), which stay.
         max_spread, min_change: ``>= 0``, as above.
 
     Returns:
@@ -342,14 +321,36 @@ def carry_prismatic_depths(
     return T, S, carried
 
 
-STACK_MIN_POINTS = 10
-"""A child of a stack with fewer (confident) points than this is hidden: :func:`stack_hidden_children` places it."""
+def _sized_from_parent(S: np.ndarray, hidden, parent: int, priors: CategoryPriors) -> None:
+    """Set (in place) the extents across its slide of each child in ``hidden`` to its size ratio times ``parent``'s
+    (``JointPrior.child_size_ratio``, where measured; a prismatic child's axes are its parent's)."""
+    for c in hidden:  # a handful of children
+        jp = next(jp for jp in priors.joints if jp.child == c)
+        if jp.child_size_ratio is not None:
+            across = np.abs(np.asarray(jp.axis)) < 1e-6  # the parent's axes across the slide
+            S[c] = np.where(across, np.asarray(jp.child_size_ratio) * S[parent], S[c])
 
 
-STACK_MAX_SPREAD = 0.1
-"""A stack whose gaps varied by more than this over the training views (10th-90th percentile range, in the
-parent's extent along the stack: ``StackPrior.first_gap_spread`` / ``gap_spread``) places nothing. The shipped
-drawer's: 0.061 under the cabinet's top, 0.038 between drawers."""
+def _stacked_places(y: np.ndarray, h: np.ndarray, seen: np.ndarray, st, H: float) -> np.ndarray:
+    """``(n,)`` the places along a stack's axis of its children (top first; ``y`` their places, ``h`` their extents
+    along it, ``H`` the parent's): seen ones stay, hidden ones chained at the stack's gap below a placed child
+    above, or above one below, or (none seen) the first under the parent's face at ``first_gap``."""
+    gap = st.gap * H
+    new, placed = y.copy(), seen.copy()
+    for m in range(len(y)):  # down: from a placed child above, or the first from the parent's face
+        if placed[m]:
+            continue
+        if m > 0 and placed[m - 1]:
+            new[m] = new[m - 1] - 0.5 * h[m - 1] - gap - 0.5 * h[m]
+            placed[m] = True
+        elif m == 0 and not seen.any():
+            new[0] = 0.5 * H - st.first_gap * H - 0.5 * h[0]
+            placed[0] = True
+    for m in range(len(y) - 2, -1, -1):  # up: from a placed child below
+        if not placed[m] and placed[m + 1]:
+            new[m] = new[m + 1] + 0.5 * h[m + 1] + gap + 0.5 * h[m]
+            placed[m] = True
+    return new
 
 
 def stack_hidden_children(
@@ -358,44 +359,30 @@ def stack_hidden_children(
     labels,
     priors: CategoryPriors,
     confidence=None,
-    min_points: int = STACK_MIN_POINTS,
-    min_confidence: float = FRONT_MIN_CONFIDENCE,
-    max_spread: float = STACK_MAX_SPREAD,
-    size_from_parent: bool = True,
+    min_points: int = _P.stack_min_points,
+    min_confidence: float = _P.min_confidence,
+    max_spread: float = _P.stack_max_spread,
+    size_from_parent: bool = _P.stack_size_from_parent,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Size the hidden children of a stack from their parent and put them next to a seen one, or under their parent's face.
 
-    The drawers of a chest sit one above the other, in one order, face to face (:class:`ucope.priors.
-    StackPrior`: every training view held them so). A drawer a view hides (behind the cabinet's back, under an
-    open drawer above it) has nothing to vote its height from, and voting puts it where the training drawers
-    were on average: on the shipped drawer's test views, hidden drawers that failed were 0.13 m off in
-    height (median). For each stack whose gaps varied by at most ``max_spread``, each child with fewer than
-    ``min_points`` (confident) points is moved along the stack's axis ``e`` (the parent's box axis, camera
-    frame) to lie against its nearest seen sibling above it, at the stack's median gap: its ``+e`` face
-    ``gap`` (times the parent's extent along ``e``) below that sibling's ``-e`` face, hidden siblings in
-    between chained the same way. Without a seen sibling above, against the nearest seen one below; with
-    none seen, the first child under the parent's ``+e`` face at ``first_gap`` and the rest chained below it.
-    Each child's extent along ``e`` is its box's (``|R_c^T e| . size_c``). Only the coordinate along ``e``
-    changes; rotations and the other coordinates (the slide, left-right) are kept.
-
-    Before it is placed, with ``size_from_parent``, a hidden child's extents across its slide become its size
-    ratio to the parent times the parent's (``JointPrior.child_size_ratio``, where measured; the child's axes are
-    its parent's, a prismatic joint keeping the rotation): nothing of the child votes them, and the pairs voted
-    the shipped drawer's hidden drawers 0.5-0.7x as wide as they are on wide chests and up to 3x as tall on the
-    OOD sideboards. The drawer's ratios: 0.97 of the cabinet's width (spread 0.05), 0.27-0.30 of its height
-    (0.14-0.18: plinths, legs and graduated drawers). Shipped drawer, same views: test 131 -> 131 of 200 (mean
-    translation of the middle and bottom drawers 9.1 -> 8.9 and 9.1 -> 8.6 % of their diagonals), OOD 44 -> 45 of
-    100 (1 better, 0 worse; mean 3D IoU of the drawers +1.2 to +1.9 points).
+    The children of a stack (:class:`ucope.priors.StackPrior`: drawers one above the other, in one order, face to
+    face in every training view) that show fewer than ``min_points`` (confident) points are hidden. For each stack
+    whose gaps varied by at most ``max_spread``, each hidden child is moved along the stack's axis ``e`` (the
+    parent's box axis) to lie against its nearest seen sibling above it at the stack's median gap (times the
+    parent's extent along ``e``), hidden siblings in between chained the same way; without a seen sibling above,
+    against the nearest seen one below; with none seen, the first under the parent's ``+e`` face at ``first_gap``
+    and the rest chained below it. A child's extent along ``e`` is its box's (``|R_c^T e| . size_c``). Only the
+    coordinate along ``e`` changes. Before it is placed, with ``size_from_parent``, a hidden child's extents across
+    its slide become its size ratio to the parent times the parent's (``JointPrior.child_size_ratio``).
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame or any other, metres).
-        size_m: ``(K, 3)`` box extents (metres, > 0).
+        cam_from_part: ``(K, 4, 4)`` part poses (metres); size_m: ``(K, 3)`` box extents (metres, > 0).
         labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (``CategoryPriors.stacks``; without stacks nothing moves).
         confidence: optional ``(P,)`` per point, the probability that it is the object; points below
             ``min_confidence`` do not count.
-        min_points: children with fewer points than this are hidden; max_spread: ``>= 0``, as above.
-        size_from_parent: size the hidden children from the parent's extents (above).
+        min_points, max_spread (``>= 0``), size_from_parent: as above.
 
     Returns:
         ``(cam_from_part, size_m, moved_m)``: ``(K, 4, 4)`` and ``(K, 3)`` float64 copies, and ``(K,)`` the signed
@@ -411,8 +398,7 @@ def stack_hidden_children(
     lab = np.asarray(labels)
     if lab.ndim != 1 or not np.issubdtype(lab.dtype, np.integer):
         raise InputError(f"labels must be one integer per point, got {lab.dtype} of shape {lab.shape}")
-    if confidence is not None:
-        lab = np.where(_checked_confidence(confidence, len(lab)) >= min_confidence, lab, -1)
+    lab = _confident(lab, confidence, min_confidence)
     counts = np.bincount(lab[(lab >= 0) & (lab < K)], minlength=K)
     moved = np.zeros(K)
     for st in priors.stacks:  # a stack or two; a handful of children each
@@ -423,30 +409,11 @@ def stack_hidden_children(
         if seen.all():
             continue
         if size_from_parent:
-            for c in ch[~seen]:  # a handful of children
-                jp = next(jp for jp in priors.joints if jp.child == c)
-                if jp.child_size_ratio is not None:
-                    across = np.abs(np.asarray(jp.axis)) < 1e-6  # the parent's axes across the slide
-                    S[c] = np.where(across, np.asarray(jp.child_size_ratio) * S[st.parent], S[c])
+            _sized_from_parent(S, ch[~seen], st.parent, priors)
         e = T[st.parent, :3, st.axis]
-        H = float(S[st.parent, st.axis])
         y = (T[ch, :3, 3] - T[st.parent, :3, 3]) @ e  # (n,) places along e
         h = np.einsum("ni,ni->n", np.abs(np.einsum("nji,j->ni", T[ch, :3, :3], e)), S[ch])  # (n,) extents along e
-        gap = st.gap * H
-        new, placed = y.copy(), seen.copy()
-        for m in range(len(ch)):  # down: from a placed child above, or the first from the parent's face
-            if placed[m]:
-                continue
-            if m > 0 and placed[m - 1]:
-                new[m] = new[m - 1] - 0.5 * h[m - 1] - gap - 0.5 * h[m]
-                placed[m] = True
-            elif m == 0 and not seen.any():
-                new[0] = 0.5 * H - st.first_gap * H - 0.5 * h[0]
-                placed[0] = True
-        for m in range(len(ch) - 2, -1, -1):  # up: from a placed child below
-            if not placed[m] and placed[m + 1]:
-                new[m] = new[m + 1] + 0.5 * h[m + 1] + gap + 0.5 * h[m]
-                placed[m] = True
+        new = _stacked_places(y, h, seen, st, float(S[st.parent, st.axis]))
         T[ch, :3, 3] += (new - y)[:, None] * e
         moved[ch] = new - y
     return T, S, moved
@@ -455,18 +422,25 @@ def stack_hidden_children(
 @stage(
     "prismatic",
     kind="learned-prior",
+    params=PrismaticParams,
     reads=("joints.child_in_parent_spread", "joints.child_size_ratio", "stacks"),
     applies=lambda priors: any(jp.type == JointType.PRISMATIC for jp in priors.joints),
 )
-def _prismatic(state: PoseState, params) -> None:
+def _prismatic(state: PoseState, params: PrismaticParams) -> None:
     """Drawers placed in their cabinet: the cabinet's box holds their points, each drawer as deep as the cabinet
     says, placed across its slide as in training, slid to where its points end, hidden ones stacked against seen
     siblings."""
     T, S, pri, pts, lab, conf = state.cam_from_part, state.size_m, state.priors, state.points, state.part_labels, state.confidence
-    T, S, _ = hold_prismatic_children(T, S, pts, lab, pri, confidence=conf)
-    T, S, _ = carry_prismatic_depths(T, S, pri, state.fitted)
-    T, _ = place_prismatic_children(T, S, pri)
-    T, _ = slide_to_fronts(T, S, pts, lab, pri, confidence=conf)
+    p = params
+    hold = dict(quantile=p.hold_quantile, min_points=p.hold_min_points, min_confidence=p.hold_min_confidence)
+    T, S, _ = hold_prismatic_children(T, S, pts, lab, pri, conf, connect_factor=p.connect_factor, **hold)
+    T, S, _ = carry_prismatic_depths(T, S, pri, state.fitted, p.depth_max_spread, p.depth_min_change)
+    T, _ = place_prismatic_children(T, S, pri, p.place_max_spread)
+    front = dict(quantile=p.front_quantile, min_points=p.front_min_points, min_shift=p.front_min_shift)
+    T, _ = slide_to_fronts(
+        T, S, pts, lab, pri, connect_factor=p.connect_factor, confidence=conf, min_confidence=p.min_confidence, **front
+    )
     if pri.stacks:
-        T, S, _ = stack_hidden_children(T, S, lab, pri, confidence=conf)
+        stack = dict(min_points=p.stack_min_points, max_spread=p.stack_max_spread, size_from_parent=p.stack_size_from_parent)
+        T, S, _ = stack_hidden_children(T, S, lab, pri, conf, min_confidence=p.min_confidence, **stack)
     state.cam_from_part, state.size_m = T, S

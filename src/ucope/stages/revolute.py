@@ -1,4 +1,4 @@
-"""Revolute children.
+"""Revolute children: the ``turn_children`` and ``seat_parts`` stages.
 
 :func:`turn_thin_children` turns a thin child hinged along an edge (a door, a lid, a temple) about its joint's
 axis to the direction its own points take seen along that axis, its face put on them. :func:`seat_weak_parts`
@@ -8,6 +8,8 @@ well-seen neighbour's box. Camera frame, metres, radians.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import InputError
@@ -16,6 +18,7 @@ from ..priors import CategoryPriors
 from ..vocab import JointType
 from .base import PoseState, stage
 from .support import (
+    FRONT_MIN_CONFIDENCE,
     GROW_CONNECT_FACTOR,
     _checked_camera,
     _checked_cloud,
@@ -25,18 +28,51 @@ from .support import (
     weak_neighbours,
 )
 
-SEAT_WEAK_SHARE = 0.125
-"""A part is seated on its hinge (:func:`seat_weak_parts`) only where fewer than this share of the points segmented
-as the object are its own ..."""
+
+@dataclass(frozen=True)
+class SeatPartsParams:
+    """Attributes:
+    weak_share / strong_share: a part is seated on its hinge only where fewer than ``weak_share`` of the object's
+        labelled points are its own and at least ``strong_share`` its neighbour's across the joint.
+    min_gap: ... and only where its hinge point stands more than this share of its box diagonal from its
+        neighbour's (the part came loose from its hinge).
+    """
+
+    weak_share: float = 0.125
+    strong_share: float = 0.25
+    min_gap: float = 0.2
 
 
-SEAT_STRONG_SHARE = 0.25
-"""... and at least this share are its neighbour's across the joint (as :mod:`ucope.stages.freespace`) ..."""
+@dataclass(frozen=True)
+class TurnChildrenParams:
+    """Attributes:
+    thin_ratio: a revolute child is thin where one of its two box extents across the joint's axis is at most this
+        times each of its other two (a door, a lid, a temple; not a blade that is thin along its hinge).
+    min_points: a thin child with fewer confident points joined to its box keeps its pose; join_margin: those points
+        lie in a piece joined to the child's box grown by this many of its thicknesses on every side.
+    min_elongation: ... and so does one whose points, seen along the joint's axis, do not lie along a line (the
+        larger variance of their projection at least this times the smaller); min_cover: or span less than this
+        fraction of its long extent along that line.
+    min_turn_deg: smaller turns (degrees) are left alone.
+    check_tol: a turn is undone where the points' median distance outside the box rises by more than this many of
+        the child's thicknesses.
+    min_confidence: points less likely to be the object do not count; connect_factor: the longest step between
+        joined points (median nearest-neighbour distances).
+    """
+
+    thin_ratio: float = 0.5
+    min_points: int = 50
+    min_elongation: float = 4.0
+    min_cover: float = 0.3
+    min_turn_deg: float = 2.0
+    join_margin: float = 1.0
+    check_tol: float = 0.25
+    min_confidence: float = FRONT_MIN_CONFIDENCE
+    connect_factor: float = GROW_CONNECT_FACTOR
 
 
-SEAT_MIN_GAP = 0.2
-"""... and only where its hinge point stands more than this share of its box diagonal from its neighbour's: the
-part came loose from its hinge."""
+_SEAT = SeatPartsParams()
+_TURN = TurnChildrenParams()
 
 
 def seat_weak_parts(
@@ -45,29 +81,21 @@ def seat_weak_parts(
     joint_pivot,
     labels,
     priors: CategoryPriors,
-    weak_share: float = SEAT_WEAK_SHARE,
-    strong_share: float = SEAT_STRONG_SHARE,
-    min_gap: float = SEAT_MIN_GAP,
+    weak_share: float = _SEAT.weak_share,
+    strong_share: float = _SEAT.strong_share,
+    min_gap: float = _SEAT.min_gap,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A part the camera barely sees, its centre put back where its hinge meets its well-seen neighbour's.
 
-    The centre of a part that shows few points (a closed dishwasher door seen from behind, which shows a strip
-    of its top edge; a laptop base behind its lid) is voted from little evidence: on the shipped dishwasher's
-    back views such a door stood 0.3-0.4 m off its body, slid along its hinge or in front of the body, with its
-    rotation right within 5 degrees. A revolute joint fixes the centre from the neighbour: the joint's axis passes
-    through one point of each part's unit box (``JointPrior.pivot_in_parent`` / ``pivot_in_child``, the training
-    objects' mean, times the extents), so for each revolute joint (in the priors' order) whose child is a leaf, or
-    either of whose parts is the root of a two-part object, a part with fewer than ``weak_share`` of the object's
-    labelled points next to one with at least ``strong_share``, whose voted centre stands more than ``min_gap`` of
-    its box diagonal from the centre that puts its point on its neighbour's (:func:`carry_upright`'s placement),
-    takes that centre, and the joint's pivot becomes that point. At the true poses and sizes of the test views that
-    placement is 0.1 % of the part's box diagonal off the true centre (median) for the laptop's base and lid, 2.5 %
-    (90th percentile 5.4 %) for the dishwasher's door; but it follows the neighbour's voted box, and seated without
-    the gap the shipped dishwasher lost 8 of 200 test views (docs/results.md). Rotations, sizes, joint axes and
-    revolute states are kept. Camera frame, metres.
+    A revolute joint fixes a part's centre from its neighbour's box: the joint's axis passes through one point of each
+    part's unit box (``JointPrior.pivot_in_parent`` / ``pivot_in_child``, the training objects' mean, times the
+    extents). For each part ``w`` next to a neighbour ``o`` across a revolute joint
+    (:func:`ucope.stages.support.weak_neighbours` with ``weak_share`` and ``strong_share``) whose voted centre stands
+    more than ``min_gap`` of its box diagonal from the centre that puts its point on its neighbour's, the part takes
+    that centre and the joint's pivot becomes that point. Rotations, sizes, joint axes and revolute states are kept.
 
     Args:
-        cam_from_part: ``(K, 4, 4)`` part poses; size_m: ``(K, 3)`` box extents (> 0).
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents (> 0).
         joint_pivot: ``(J, 3)`` the joints' pivots.
         labels: ``(P,)`` integer part of each point; values outside ``[0, K)`` belong to no part.
         priors: the category's priors (tree, joint types, pivot places).
@@ -111,114 +139,9 @@ def seat_weak_parts(
     return T, piv, seated
 
 
-TURN_THIN_RATIO = 0.5
-"""A revolute child is thin (:func:`turn_thin_children`) where one of its two box extents across the joint's axis is
-at most this times each of its other two: a dishwasher door (0.2), a laptop lid, a spectacle temple. A scissor blade
-is thin along its hinge and is left alone: turned, its box would be moved across its own width."""
-
-
-TURN_MIN_POINTS = 50
-"""A thin child with fewer confident points than this, in the piece joined to its box, keeps its pose."""
-
-
-TURN_MIN_ELONGATION = 4.0
-"""... and so does one whose points, seen along the joint's axis, do not lie along a line: the larger variance of
-their projection at least this times the smaller (a door seen edge-on from above is a short blob)."""
-
-
-TURN_MIN_COVER = 0.3
-"""... or whose points span less than this fraction of its long extent along that line."""
-
-
-TURN_MIN_DEG = 2.0
-"""Turns smaller than this (degrees) are left alone."""
-
-
-TURN_MIN_CONFIDENCE = 0.5
-"""Points whose probability of being the object is below this do not count (the slide's, ``FRONT_MIN_CONFIDENCE``)."""
-
-
-TURN_JOIN_MARGIN = 1.0
-"""The points that count lie in a piece joined to the child's box grown by this many of its thicknesses on every
-side (a door voted a thickness off its own points still finds them)."""
-
-
-TURN_CHECK_TOL = 0.25
-"""A turn is undone where it moves the points out of the box: their median distance outside it rises by more
-than this many of the child's thicknesses (a mislabelled strip of the parent that drew the line)."""
-
-
-def turn_thin_children(
-    cam_from_part,
-    size_m,
-    joint_axis,
-    points,
-    labels,
-    priors: CategoryPriors,
-    confidence=None,
-    camera=(0.0, 0.0, 0.0),
-    thin_ratio: float = TURN_THIN_RATIO,
-    min_points: int = TURN_MIN_POINTS,
-    min_elongation: float = TURN_MIN_ELONGATION,
-    min_cover: float = TURN_MIN_COVER,
-    min_turn_deg: float = TURN_MIN_DEG,
-    join_margin: float = TURN_JOIN_MARGIN,
-    check_tol: float = TURN_CHECK_TOL,
-    connect_factor: float = GROW_CONNECT_FACTOR,
-    min_confidence: float = TURN_MIN_CONFIDENCE,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Turn each thin revolute child about its joint's axis until its box lies along its own points.
-
-    A dishwasher door is a slab hinged at its bottom edge. Seen from the side or the front, its points lie on a
-    plane, and seen along the hinge they form a line whose direction is the door's angle. Voting gets that angle
-    from pair votes, which strayed on the dishwasher's OOD machines: in 13 of the 31 OOD views it failed, the door
-    was 11-89 degrees off while the body was right, 9 of them with 347-830 door points in view.
-
-    For each revolute joint whose axis is one of its child's box axes, and whose child is a slab whose plane holds
-    that axis (its smaller extent across the axis at most ``thin_ratio`` times each of its other two: a door, a
-    lid, a spectacle temple; not a scissor blade, which is thin along its hinge):
-
-    1. The child's points: labelled as it, ``confidence`` at least ``min_confidence``, in one connected piece
-       (:func:`ucope.stages.support.joined_to_box`) with a point inside its box grown by ``join_margin``
-       thicknesses. At least ``min_points`` of them.
-    2. They are projected along the voted joint axis. Their principal direction is the child's long axis when
-       the larger variance is at least ``min_elongation`` times the smaller, and they span at least
-       ``min_cover`` of the child's long extent along it.
-    3. The child is turned about the joint axis, through its points' mean, by the signed angle from its long
-       axis to that direction (of the two senses, the nearer; skipped under ``min_turn_deg``).
-    4. Its box is moved along its thin axis until the face towards ``camera`` lies at the points' median
-       there.
-    5. The turn is undone where the points' median distance outside the box rose by more than ``check_tol``
-       thicknesses.
-
-    Parents, sizes and the joint's axis and pivot are left as they are; the joint's state follows from the
-    turned box (:func:`settle_joint_states`).
-
-    Args:
-        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres).
-        size_m: ``(K, 3)`` box extents (metres, > 0).
-        joint_axis: ``(J, 3)`` the voted joint axes (camera frame; any length > 0, any sign).
-        points: ``(P, 3)`` the cloud (same frame, metres).
-        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
-        priors: the category's priors (joint tree, types, canonical axes).
-        confidence: optional ``(P,)`` per point, the probability that it is the object.
-        camera: ``(3,)`` the camera's centre in the same frame (the origin of a camera frame).
-        thin_ratio: in ``(0, 1]``; min_points: >= 3; min_elongation: >= 1; min_cover, min_turn_deg,
-            join_margin, check_tol: >= 0; connect_factor: > 0; min_confidence: in ``[0, 1]``.
-
-    Returns:
-        ``(cam_from_part, turned)``: a new ``(K, 4, 4)`` float64 array and ``(K,)`` the angle each part was
-        turned by (radians about its joint's axis as given; 0 for parts left alone).
-
-    Raises:
-        InputError: shapes that do not match the priors, non-finite poses, sizes, axes, points or camera, a
-            non-positive size or a zero axis, labels that are not integers, confidences that are not one
-            finite value per point, or a setting out of its range.
-    """
-    T, S, pts, lab = _checked_cloud(
-        cam_from_part, size_m, points, labels, priors, 0.0, connect_factor, confidence, min_confidence
-    )
-    J = priors.num_joints
+def _checked_turn(joint_axis, J: int, camera, thin_ratio, min_points, min_elongation, min_confidence, others):
+    """``(axes (J, 3), lengths (J,), camera (3,))`` after :func:`turn_thin_children`'s checks of its axes, camera and
+    settings (``others``: ``min_cover, min_turn_deg, join_margin, check_tol``, each ``>= 0``)."""
     u_all = np.asarray(joint_axis, dtype=np.float64)
     if u_all.shape != (J, 3) or not np.isfinite(u_all).all():
         raise InputError(f"joint_axis must be a finite ({J}, 3) array, got shape {u_all.shape}")
@@ -232,58 +155,143 @@ def turn_thin_children(
         raise InputError(f"min_points must be >= 3 and min_elongation >= 1, got {min_points!r} and {min_elongation!r}")
     if not 0.0 <= min_confidence <= 1.0:
         raise InputError(f"min_confidence must lie in [0, 1], got {min_confidence!r}")
-    if not (min_cover >= 0.0 and min_turn_deg >= 0.0 and join_margin >= 0.0 and check_tol >= 0.0):
-        raise InputError(
-            "min_cover, min_turn_deg, join_margin and check_tol must be >= 0, got "
-            f"{min_cover!r}, {min_turn_deg!r}, {join_margin!r}, {check_tol!r}"
-        )
+    if not all(x >= 0.0 for x in others):
+        raise InputError("min_cover, min_turn_deg, join_margin and check_tol must be >= 0, got " + ", ".join(map(repr, others)))
+    return u_all, length, cam
+
+
+def _slab_axes(size: np.ndarray, axis, thin_ratio: float) -> tuple[int, int] | None:
+    """``(thin, long)``: the box axes (of extents ``size``) across the canonical joint ``axis``, thinner first, where
+    ``axis`` is a box axis and the box a slab whose plane holds it (its thin extent at most ``thin_ratio`` times each
+    of its other two); ``None`` otherwise."""
+    hinge = np.abs(np.asarray(axis))
+    if not np.isclose(hinge.max(), 1.0, atol=1e-6):
+        return None
+    along = int(np.argmax(hinge))
+    thin, long_ = sorted((i for i in range(3) if i != along), key=lambda i: size[i])
+    return None if size[thin] > thin_ratio * min(size[long_], size[along]) else (thin, long_)
+
+
+def _line_turn(own: np.ndarray, u: np.ndarray, long_axis: np.ndarray, long_extent: float, min_elongation, min_cover):
+    """``(angle, mean)``: the signed angle (radians about the unit ``u``) from ``long_axis`` (a box axis, camera
+    frame) to the line the points ``own`` ``(N, 3)`` take seen along ``u``, of the two senses the nearer, and their
+    mean; ``None`` where they do not lie along a line (variances within ``min_elongation``) or span less than
+    ``min_cover`` of ``long_extent`` along it."""
+    mean = own.mean(0)
+    flat = own - mean
+    flat -= np.outer(flat @ u, u)  # seen along the axis
+    var, vec = np.linalg.eigh(flat.T @ flat / len(flat))  # ascending; the smallest is along u
+    if var[2] < min_elongation * max(var[1], 1e-18):
+        return None
+    line = vec[:, 2]
+    if np.ptp(flat @ line) < min_cover * long_extent:
+        return None
+    long_axis = long_axis - (long_axis @ u) * u
+    line = line if long_axis @ line >= 0.0 else -line
+    return float(np.arctan2(np.cross(long_axis, line) @ u, long_axis @ line)), mean
+
+
+def _turned_onto(cam_from_box, size, thin: int, u, angle: float, mean, own, cam) -> np.ndarray:
+    """The box pose ``cam_from_box`` turned by ``angle`` about ``u`` through ``mean``, then moved along its ``thin``
+    axis until its face towards ``cam`` lies at the median of the points ``own`` there."""
+    X = np.array(cam_from_box, dtype=np.float64)
+    R = rotation_about_axis(u, angle)
+    X[:3, :3] = R @ X[:3, :3]
+    X[:3, 3] = mean + R @ (X[:3, 3] - mean)
+    normal = X[:3, :3][:, thin]
+    normal = normal if normal @ (cam - X[:3, 3]) >= 0.0 else -normal  # towards the camera
+    X[:3, 3] += (np.median(own @ normal) - 0.5 * size[thin] - X[:3, 3] @ normal) * normal
+    return X
+
+
+def turn_thin_children(
+    cam_from_part,
+    size_m,
+    joint_axis,
+    points,
+    labels,
+    priors: CategoryPriors,
+    confidence=None,
+    camera=(0.0, 0.0, 0.0),
+    thin_ratio: float = _TURN.thin_ratio,
+    min_points: int = _TURN.min_points,
+    min_elongation: float = _TURN.min_elongation,
+    min_cover: float = _TURN.min_cover,
+    min_turn_deg: float = _TURN.min_turn_deg,
+    join_margin: float = _TURN.join_margin,
+    check_tol: float = _TURN.check_tol,
+    connect_factor: float = _TURN.connect_factor,
+    min_confidence: float = _TURN.min_confidence,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Turn each thin revolute child about its joint's axis until its box lies along its own points.
+
+    For each revolute joint whose axis is one of its child's box axes, and whose child is a slab whose plane holds
+    that axis (its smaller extent across the axis at most ``thin_ratio`` times each of its other two): the child's
+    points (labelled as it, ``confidence`` at least ``min_confidence``, joined to its box grown by ``join_margin``
+    thicknesses, :func:`ucope.stages.support.joined_to_box`; at least ``min_points``), seen along the voted joint
+    axis, give its long axis's direction (:func:`_line_turn`: ``min_elongation``, ``min_cover``). The child is
+    turned about the joint axis through its points' mean by the signed angle from its long axis to that direction
+    (skipped under ``min_turn_deg``) and moved along its thin axis until its face towards ``camera`` lies at the
+    points' median there; the turn is undone where the points' median distance outside the box rose by more than
+    ``check_tol`` thicknesses. Parents, sizes and the joint's axis and pivot are kept; the joint's state follows
+    from the turned box (:func:`ucope.stages.states.settle_joint_states`).
+
+    Args:
+        cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents (> 0).
+        joint_axis: ``(J, 3)`` the voted joint axes (camera frame; any length > 0, any sign).
+        points: ``(P, 3)`` the cloud (same frame, metres).
+        labels: ``(P,)`` integer part of every point; values outside ``[0, K)`` belong to no part.
+        priors: the category's priors (joint tree, types, canonical axes).
+        confidence: optional ``(P,)`` the probability that each point is the object; camera: ``(3,)`` its centre.
+        thin_ratio: in ``(0, 1]``; min_points: >= 3; min_elongation: >= 1; min_cover, min_turn_deg,
+            join_margin, check_tol: >= 0; connect_factor: > 0; min_confidence: in ``[0, 1]``.
+
+    Returns:
+        ``(cam_from_part, turned)``: a new ``(K, 4, 4)`` float64 array and ``(K,)`` the angle each part was
+        turned by (radians about its joint's axis as given; 0 for parts left alone).
+
+    Raises:
+        InputError: shapes that do not match the priors, non-finite poses, sizes, axes, points or camera, a size
+            <= 0 or a zero axis, labels that are not integers, bad confidences, or a setting out of its range.
+    """
+    T, S, pts, lab = _checked_cloud(
+        cam_from_part, size_m, points, labels, priors, 0.0, connect_factor, confidence, min_confidence
+    )
+    others = (min_cover, min_turn_deg, join_margin, check_tol)
+    u_all, length, cam = _checked_turn(
+        joint_axis, priors.num_joints, camera, thin_ratio, min_points, min_elongation, min_confidence, others
+    )
     turned = np.zeros(priors.num_parts)
     for j, jp in enumerate(priors.joints):  # a handful of joints; the point work is vectorised
-        hinge = np.abs(np.asarray(jp.axis))
-        if jp.type != JointType.REVOLUTE or not np.isclose(hinge.max(), 1.0, atol=1e-6):
-            continue
         c = jp.child
-        along = int(np.argmax(hinge))
-        thin, long_ = sorted((i for i in range(3) if i != along), key=lambda i: S[c, i])
-        if S[c, thin] > thin_ratio * min(S[c, long_], S[c, along]):  # a slab whose plane holds the hinge
+        if jp.type != JointType.REVOLUTE or (axes := _slab_axes(S[c], jp.axis, thin_ratio)) is None:
             continue
+        thin, long_ = axes
         own = pts[lab == c]
         local = (own - T[c, :3, 3]) @ T[c, :3, :3]
         own = own[joined_to_box(local, 0.5 * S[c] + join_margin * S[c, thin], connect_factor)]
         if len(own) < max(int(min_points), 3):
             continue
         u = u_all[j] / length[j]
-        mean = own.mean(0)
-        flat = own - mean
-        flat -= np.outer(flat @ u, u)  # seen along the axis
-        var, vec = np.linalg.eigh(flat.T @ flat / len(flat))  # ascending; the smallest is along u
-        if var[2] < min_elongation * max(var[1], 1e-18):
+        if (line := _line_turn(own, u, T[c, :3, long_], S[c, long_], min_elongation, min_cover)) is None:
             continue
-        line = vec[:, 2]
-        if np.ptp(flat @ line) < min_cover * S[c, long_]:
-            continue
-        long_axis = T[c, :3, :3][:, long_] - (T[c, :3, :3][:, long_] @ u) * u
-        line = line if long_axis @ line >= 0.0 else -line
-        angle = float(np.arctan2(np.cross(long_axis, line) @ u, long_axis @ line))
+        angle, mean = line
         if abs(angle) < np.radians(min_turn_deg):
             continue
-        before = T[c].copy()
-        R = rotation_about_axis(u, angle)
-        T[c, :3, :3] = R @ T[c, :3, :3]
-        T[c, :3, 3] = mean + R @ (T[c, :3, 3] - mean)
-        normal = T[c, :3, :3][:, thin]
-        normal = normal if normal @ (cam - T[c, :3, 3]) >= 0.0 else -normal  # towards the camera
-        T[c, :3, 3] += (np.median(own @ normal) - 0.5 * S[c, thin] - T[c, :3, 3] @ normal) * normal
-        if _median_outside(own, T[c], S[c]) > _median_outside(own, before, S[c]) + check_tol * S[c, thin]:
-            T[c] = before
+        X = _turned_onto(T[c], S[c], thin, u, angle, mean, own, cam)
+        if _median_outside(own, X, S[c]) > _median_outside(own, T[c], S[c]) + check_tol * S[c, thin]:
             continue
+        T[c] = X
         turned[c] = angle
     return T, turned
 
 
-@stage("turn_children", kind="geometry", applies=lambda priors: priors.num_joints > 0)
-def _turn_children(state: PoseState, params) -> None:
+@stage("turn_children", kind="geometry", params=TurnChildrenParams, applies=lambda priors: priors.num_joints > 0)
+def _turn_children(state: PoseState, params: TurnChildrenParams) -> None:
     """A thin revolute child (a door, a lid) turned about its joint's axis until its box lies along its points."""
+    p = params
+    line = dict(thin_ratio=p.thin_ratio, min_points=p.min_points, min_elongation=p.min_elongation, min_cover=p.min_cover)
+    check = dict(min_turn_deg=p.min_turn_deg, join_margin=p.join_margin, check_tol=p.check_tol)
     state.cam_from_part, _ = turn_thin_children(
         state.cam_from_part,
         state.size_m,
@@ -293,19 +301,31 @@ def _turn_children(state: PoseState, params) -> None:
         state.priors,
         confidence=state.confidence,
         camera=state.camera,
+        connect_factor=p.connect_factor,
+        min_confidence=p.min_confidence,
+        **line,
+        **check,
     )
 
 
 @stage(
     "seat_parts",
     kind="learned-prior",
+    params=SeatPartsParams,
     reads=("joints.pivot_in_parent", "joints.pivot_in_child"),
     applies=lambda priors: priors.num_joints > 0,
 )
-def _seat_parts(state: PoseState, params) -> None:
+def _seat_parts(state: PoseState, params: SeatPartsParams) -> None:
     """A part that shows few points and stands off its hinge, put where its joint's axis meets its neighbour's box."""
     state.cam_from_part, state.joint_pivot, seated = seat_weak_parts(
-        state.cam_from_part, state.size_m, state.joint_pivot, state.part_labels, state.priors
+        state.cam_from_part,
+        state.size_m,
+        state.joint_pivot,
+        state.part_labels,
+        state.priors,
+        params.weak_share,
+        params.strong_share,
+        params.min_gap,
     )
     for k in np.flatnonzero(seated):
         state.warnings.append(

@@ -18,6 +18,22 @@ from .base import PoseState, stage
 
 
 @dataclass(frozen=True)
+class RevolutionFitParams:
+    """Attributes: factor: the fitted box replaces the voted one where their sizes differ by more than this factor
+    on some axis; max_spread: ... and where the fit is good (:attr:`RevolutionFit.spread` at most this)."""
+
+    factor: float = 1.2
+    max_spread: float = 0.08
+
+    def __post_init__(self) -> None:
+        if not (self.factor > 1.0 and self.max_spread >= 0.0):
+            raise InputError(f"factor must be > 1 and max_spread >= 0, got {self.factor}, {self.max_spread}")
+
+
+_P = RevolutionFitParams()
+
+
+@dataclass(frozen=True)
 class RevolutionFit:
     """A surface of revolution about an axis parallel to y, fitted to points in a part frame.
 
@@ -123,7 +139,7 @@ def looks_cut(y_range_m, height_m: float, overhang: float = 0.1, balance: float 
 
 
 def refine_revolution(
-    cam_from_part, size_m, points, factor: float = 1.2, max_spread: float = 0.08
+    cam_from_part, size_m, points, factor: float = _P.factor, max_spread: float = _P.max_spread
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """A y-symmetric part's box and centre from its own points, where they disagree with the vote.
 
@@ -166,18 +182,6 @@ def refine_revolution(
     return T, fit.size_m, True
 
 
-@dataclass(frozen=True)
-class RevolutionFitParams:
-    """Attributes: factor: the fitted box replaces the voted one where their sizes differ by more than this
-    factor on some axis."""
-
-    factor: float = 1.2
-
-    def __post_init__(self) -> None:
-        if not self.factor > 1.0:
-            raise InputError(f"factor must be > 1, got {self.factor}")
-
-
 @stage(
     "revolution_fit",
     kind="geometry",
@@ -189,5 +193,5 @@ def _revolution_fit(state: PoseState, params: RevolutionFitParams) -> None:
     pts = np.asarray(state.points, np.float64)
     T, S = np.array(state.cam_from_part), np.array(state.size_m)
     for k in np.flatnonzero(state.priors.symmetric):  # a part or two
-        T[k], S[k], _ = refine_revolution(T[k], S[k], pts[state.part_points[k]], params.factor)
+        T[k], S[k], _ = refine_revolution(T[k], S[k], pts[state.part_points[k]], params.factor, params.max_spread)
     state.cam_from_part, state.size_m = T, S

@@ -30,11 +30,78 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.kinematics import joint_state_from_poses, revolute_angle
-from ..geometry.transforms import closest_rotation, rotation_about_axis
+from ..geometry.transforms import closest_rotation, rotation_about_axis, rotation_angle_deg
 from ..priors import CategoryPriors
 from ..vocab import JointType
 from .base import PoseState, stage
-from .faces import root_back_to_faces
+from .faces import align_parts_to_faces
+
+
+@dataclass(frozen=True)
+class KinematicRefineParams:
+    """Attributes:
+    axis_weight: the weight of the voted joint axes against the part rotations (weighted by their vote scores).
+    iters: block coordinate descent rounds.
+    face_reset_max_deg: a root aligned to its faces (``align_faces``) and left within this angle of that rotation by
+        the refinement is turned back onto it; farther (a flip or an upright carry turned it) it is aligned afresh
+        (:func:`root_back_to_faces`).
+    """
+
+    axis_weight: float = 1.0
+    iters: int = 10
+    face_reset_max_deg: float = 30.0
+
+
+_P = KinematicRefineParams()
+
+
+def _checked_refine(poses, sizes, joints: dict, priors: CategoryPriors, part_weights) -> tuple:
+    """``(T, S, U_hat, pivot, w)`` as float64 arrays after :func:`kinematic_refine`'s checks of its inputs."""
+    K, J = priors.num_parts, priors.num_joints
+    T = np.asarray(poses, dtype=np.float64)
+    S = np.asarray(sizes, dtype=np.float64)
+    if T.shape != (K, 4, 4) or S.shape != (K, 3) or not (np.all(np.isfinite(T)) and np.all(np.isfinite(S))):
+        raise InputError(f"poses must be finite (K={K}, 4, 4) and sizes (K, 3), got {T.shape}, {S.shape}")
+    U_hat = np.asarray(joints.get("joint_axis", np.zeros((0, 3))), dtype=np.float64).reshape(-1, 3)
+    if U_hat.shape != (J, 3) or not np.all(np.isfinite(U_hat)):
+        raise InputError(f"joints['joint_axis'] must be finite ({J}, 3), got {U_hat.shape}")
+    pivot = np.asarray(joints.get("joint_pivot", np.full((J, 3), np.nan)), dtype=np.float64).reshape(J, 3)
+    w = np.ones(K) if part_weights is None else np.asarray(part_weights, dtype=np.float64).reshape(K)
+    if np.any(w < 0) or not np.all(np.isfinite(w)):
+        raise InputError("part_weights must be non-negative and finite")
+    return T, S, U_hat, pivot, w
+
+
+def _tree(parent: np.ndarray, child: np.ndarray, K: int) -> tuple[list[int], dict[int, int], dict[int, list[int]]]:
+    """``(order, joint_of, subtree)``: the parts parents first from the root 0, the joint above each part and each
+    part's subtree (itself first); :class:`InputError` where the joints do not form a tree rooted at part 0."""
+    J = len(parent)
+    joint_of = {int(c): j for j, c in enumerate(child)}
+    order, seen = [0], {0}
+    while len(order) < K:
+        grew = False
+        for j in range(J):
+            if int(parent[j]) in seen and int(child[j]) not in seen:
+                order.append(int(child[j]))
+                seen.add(int(child[j]))
+                grew = True
+        if not grew:
+            raise InputError("the joints do not form a tree rooted at part 0")
+    subtree = {k: [k] for k in range(K)}
+    for k in reversed(order[1:]):
+        subtree[int(parent[joint_of[k]])] += subtree[k]
+    return order, joint_of, subtree
+
+
+def _chains(q: np.ndarray, a: np.ndarray, parent: np.ndarray, revolute: np.ndarray, order, joint_of) -> np.ndarray:
+    """``(K, 3, 3)`` the chain of joint rotations from the root to each part at the revolute states ``q``."""
+    G = np.zeros((len(order), 3, 3))
+    G[0] = np.eye(3)
+    for k in order[1:]:
+        j = joint_of[k]
+        rot = rotation_about_axis(a[j], q[j]) if revolute[j] else np.eye(3)
+        G[k] = G[parent[j]] @ rot
+    return G
 
 
 def kinematic_refine(
@@ -43,8 +110,8 @@ def kinematic_refine(
     joints: dict,
     priors: CategoryPriors,
     part_weights=None,
-    axis_weight: float = 1.0,
-    iters: int = 10,
+    axis_weight: float = _P.axis_weight,
+    iters: int = _P.iters,
 ) -> dict[str, np.ndarray]:
     """Consistent part rotations, joint axes and states (see the module docstring).
 
@@ -61,19 +128,13 @@ def kinematic_refine(
         dict: ``cam_from_part`` ``(K, 4, 4)`` (rotations refined, translations as voted),
         ``joint_axis`` ``(J, 3)`` (``R_parent a_j``), ``joint_pivot`` ``(J, 3)`` (as given, or NaN),
         ``joint_state`` ``(J,)`` (radians / metres).
+
+    Raises:
+        InputError: shapes that do not match the priors, non-finite values, negative weights, joints that do not
+            form a tree rooted at part 0.
     """
     K, J = priors.num_parts, priors.num_joints
-    T = np.asarray(poses, dtype=np.float64)
-    S = np.asarray(sizes, dtype=np.float64)
-    if T.shape != (K, 4, 4) or S.shape != (K, 3) or not (np.all(np.isfinite(T)) and np.all(np.isfinite(S))):
-        raise InputError(f"poses must be finite (K={K}, 4, 4) and sizes (K, 3), got {T.shape}, {S.shape}")
-    U_hat = np.asarray(joints.get("joint_axis", np.zeros((0, 3))), dtype=np.float64).reshape(-1, 3)
-    if U_hat.shape != (J, 3) or not np.all(np.isfinite(U_hat)):
-        raise InputError(f"joints['joint_axis'] must be finite ({J}, 3), got {U_hat.shape}")
-    pivot = np.asarray(joints.get("joint_pivot", np.full((J, 3), np.nan)), dtype=np.float64).reshape(J, 3)
-    w = np.ones(K) if part_weights is None else np.asarray(part_weights, dtype=np.float64).reshape(K)
-    if np.any(w < 0) or not np.all(np.isfinite(w)):
-        raise InputError("part_weights must be non-negative and finite")
+    T, S, U_hat, pivot, w = _checked_refine(poses, sizes, joints, priors, part_weights)
     out_T = T.copy()
     if J == 0:
         return dict(cam_from_part=out_T, joint_axis=np.zeros((0, 3)), joint_pivot=np.zeros((0, 3)), joint_state=np.zeros(0))
@@ -86,38 +147,14 @@ def kinematic_refine(
     for j in range(J):  # the joint heads' axis sign may disagree with the canonical axis: align it
         if U_hat[j] @ (R_hat[parent[j]] @ a[j]) < 0:
             U_hat[j] = -U_hat[j]
-    # Parts in tree order (parents first) and the joint above each part.
-    joint_of = {int(c): j for j, c in enumerate(child)}
-    order, seen = [0], {0}
-    while len(order) < K:
-        grew = False
-        for j in range(J):
-            if int(parent[j]) in seen and int(child[j]) not in seen:
-                order.append(int(child[j]))
-                seen.add(int(child[j]))
-                grew = True
-        if not grew:
-            raise InputError("the joints do not form a tree rooted at part 0")
+    order, joint_of, subtree = _tree(parent, child, K)
     q = np.zeros(J)
     for j in range(J):
         if revolute[j]:
             q[j] = revolute_angle(R_hat[parent[j]].T @ R_hat[child[j]], a[j])
-
-    def chains(q):
-        G = np.zeros((K, 3, 3))
-        G[0] = np.eye(3)
-        for k in order[1:]:
-            j = joint_of[k]
-            rot = rotation_about_axis(a[j], q[j]) if revolute[j] else np.eye(3)
-            G[k] = G[parent[j]] @ rot
-        return G
-
-    subtree = {k: [k] for k in range(K)}
-    for k in reversed(order[1:]):
-        subtree[int(parent[joint_of[k]])] += subtree[k]
     R0 = R_hat[0]
     for _ in range(int(iters)):
-        G = chains(q)
+        G = _chains(q, a, parent, revolute, order, joint_of)
         M = np.einsum("k,kij,klj->il", w, R_hat, G) + axis_weight * sum(np.outer(U_hat[j], G[parent[j]] @ a[j]) for j in range(J))
         R0 = closest_rotation(M)
         R = R0 @ G
@@ -130,8 +167,8 @@ def kinematic_refine(
                 H = R[child[j]].T @ R[k]  # the chain below the child (fixed while q_j changes)
                 N += w[k] * Rp.T @ R_hat[k] @ H.T
             q[j] = revolute_angle(N, a[j]) if np.any(N) else q[j]
-            R = R0 @ chains(q)
-    R = R0 @ chains(q)
+            R = R0 @ _chains(q, a, parent, revolute, order, joint_of)
+    R = R0 @ _chains(q, a, parent, revolute, order, joint_of)
     out_T[:, :3, :3] = R
     axis = np.stack([R[parent[j]] @ a[j] for j in range(J)])
     state = q.copy()
@@ -195,15 +232,11 @@ def settle_joint_states(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joint states read off the final part poses and boxes, then clamped into the category's limits.
 
-    The states voting reports are measured before the steps that move boxes afterwards (the kinematic
-    refinement, box growth, fitted extents, anchored faces, drawer placement), and the refinement may
-    take a state clamped before it back outside the limits: on the shipped drawer's 200 test / 100 OOD
-    views 5 / 14 % of the states came out outside ``[0, upper limit]``, and a drawer's reported state
-    differed from its box's support gap by 1.0 / 1.9 cm (median). Here each state is measured again from
-    ``cam_from_part`` and ``size_m`` about the voted axis
-    (:func:`ucope.geometry.kinematics.joint_state_from_poses`: a revolute angle about ``joint_axis``, a
-    prismatic support gap less ``zero_offset_m``), then :func:`clamp_joint_states` brings those outside
-    the limits onto them and moves the child with them.
+    The states voting reports are measured before the stages that move boxes afterwards, and the refinement may take
+    a clamped state back outside the limits. Here each state is measured again from ``cam_from_part`` and ``size_m``
+    about the voted axis (:func:`ucope.geometry.kinematics.joint_state_from_poses`: a revolute angle about
+    ``joint_axis``, a prismatic support gap less ``zero_offset_m``), then :func:`clamp_joint_states` brings those
+    outside the limits onto them and moves the child with them.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` part poses (camera frame, metres); size_m: ``(K, 3)`` box extents.
@@ -239,13 +272,34 @@ def settle_joint_states(
     return clamp_joint_states(T, u, piv, q, priors)
 
 
-@dataclass(frozen=True)
-class KinematicRefineParams:
-    """Attributes: axis_weight: the weight of the voted joint axes against the part rotations (weighted by
-    their vote scores); iters: block coordinate descent rounds."""
+def root_back_to_faces(
+    T: np.ndarray, joint_axis: np.ndarray, faces: tuple, priors: CategoryPriors, max_deg: float = _P.face_reset_max_deg
+):
+    """The refined tree turned as one so that its root is on its faces again: back onto the root's rotation aligned
+    before the joints when the refinement left it within ``max_deg`` of it, else aligned afresh
+    (:func:`ucope.stages.faces.align_parts_to_faces`) from where the refinement put it. Every other part follows
+    through the tree, the joint axes too, so states and consistency are kept.
 
-    axis_weight: float = 1.0
-    iters: int = 10
+    Args:
+        T: ``(K, 4, 4)`` refined part poses (camera frame); joint_axis: ``(J, 3)``.
+        faces: ``(normals (P, 3), part_points, aligned root rotation (3, 3))``, what ``align_faces`` measured
+            (``PoseState.face_frame``).
+        priors: the category's priors (tree, symmetries).
+
+    Returns:
+        ``(cam_from_part, joint_axis, turned)``: float64 copies and ``(K,)`` bool (every part or none).
+    """
+    T = np.array(T, np.float64)
+    R_ref, R_aligned = T[0, :3, :3].copy(), faces[2]
+    if rotation_angle_deg(R_aligned, R_ref) <= max_deg:
+        turn = R_aligned @ R_ref.T
+    else:
+        tree = [(jp.child, jp.parent) for jp in priors.joints]
+        T2, _ = align_parts_to_faces(T, faces[0], faces[1], [p.symmetry for p in priors.parts], tree)
+        turn = T2[0, :3, :3] @ R_ref.T
+    T[:, :3, :3] = np.einsum("ij,kjl->kil", turn, T[:, :3, :3])
+    turned = np.full(len(T), not np.allclose(turn, np.eye(3)))
+    return T, np.asarray(joint_axis, np.float64) @ turn.T, turned
 
 
 @stage("kinematic_refine", kind="geometry", params=KinematicRefineParams, applies=lambda priors: priors.num_joints > 0)
@@ -266,5 +320,5 @@ def _kinematic_refine(state: PoseState, params: KinematicRefineParams) -> None:
     state.cam_from_part, state.joint_axis, state.joint_state = r["cam_from_part"], r["joint_axis"], r["joint_state"]
     if state.face_frame is not None:
         state.cam_from_part, state.joint_axis, _ = root_back_to_faces(
-            state.cam_from_part, state.joint_axis, state.face_frame, state.priors
+            state.cam_from_part, state.joint_axis, state.face_frame, state.priors, params.face_reset_max_deg
         )

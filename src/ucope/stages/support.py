@@ -1,4 +1,5 @@
-"""Helpers the stages share: argument checks, a part's points joined to its box, the subtree of a joint.
+"""What the stages share: the defaults several stages use, argument checks, a part's points joined to its box, the
+subtree of a joint.
 
 Frames and units: points and poses in the camera frame of the pass, metres.
 """
@@ -12,31 +13,36 @@ from ..priors import CategoryPriors
 from ..vocab import JointType
 
 GROW_QUANTILE = 0.01
-"""Lower quantile of a part's points along each box axis that the grown box holds (and ``1 -`` it):
-1 % measured best against 2 % and 5 % on the dishwasher's and drawer's OOD views (docs/results.md)."""
-
-
-GROW_THIN_RATIO = 0.25
-"""An axis whose voted extent is below this times the part's median extent is thin and never grown."""
+"""Lower quantile of a part's points along each box axis that a grown box holds (``1 -`` it above)."""
 
 
 GROW_MIN_POINTS = 30
-"""A part with fewer points than this keeps its voted box."""
+"""A part with fewer (confident, joined) points than this keeps its voted box."""
 
 
 GROW_MIN_CONFIDENCE = 0.9
-"""Points whose confidence is below this do not count. The estimator passes the probability that a point is
-the object, not the background (models with a background class). On the dishwasher (shipped model, 40
-benchmark views, 100 OOD views), 10 % / 20 % outliers and OOD success: every point counted 60 / 52 / 46 %;
-this 65 / 62 / 46 %; without growing 70 / 65 / 23 %. The largest class probability instead (which also doubts
-a point between two look-alike parts) at 0.8 / 0.9 / 0.97: 62 / 60 / 44, 68 / 65 / 39, 70 / 65 / 28 %, and it
-took the drawer's OOD gain from 6 -> 16 % to 6 -> 10 %."""
+"""Points whose probability of being the object (not the background) is below this are not sure enough to
+widen a box."""
 
 
 GROW_CONNECT_FACTOR = 8.0
-"""Longest step between joined points, in median nearest-neighbour distances of the part's points: 8 kept
-the dishwasher's OOD gain (23 -> 46 % against 47 % with every point) and its outlier and bleed figures
-(67 and 60 % against 67 and 63 % without growing, 30 benchmark views); 3 lost most of the gain (31 %)."""
+"""Longest step between joined points (:func:`connected_pieces`), in median nearest-neighbour distances of the
+points."""
+
+
+FRONT_MIN_CONFIDENCE = 0.5
+"""Points whose probability of being the object (not the background) is below this do not count as their
+part's when a stage places a part from its points (drawer fronts, stacks, slides, turned doors)."""
+
+
+UPRIGHT_MARGIN_DEG = 10.0
+"""How far (degrees) beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt:
+beyond it the ``upright`` stage re-places the part; ``free_space`` never turns a part further."""
+
+
+SHAPE_CLIP = 0.25
+"""Point-to-template distances (unit-box sizes) are clipped here before averaging: a few stray points do not
+decide a shape fit (``flips``, ``upright``)."""
 
 
 def _checked(cam_from_part, size_m, points, labels) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -80,6 +86,30 @@ def _checked_confidence(confidence, n: int) -> np.ndarray:
     if conf.shape != (n,) or not np.isfinite(conf).all():
         raise InputError(f"confidence must be {n} finite values (one per point), got shape {conf.shape}")
     return conf
+
+
+def _confident(labels: np.ndarray, confidence, min_confidence: float) -> np.ndarray:
+    """``labels`` with those of points whose ``confidence`` is below ``min_confidence`` set to -1 (``confidence``
+    ``None``: unchanged); :class:`InputError` unless there is one finite confidence per label."""
+    if confidence is None:
+        return labels
+    return np.where(_checked_confidence(confidence, len(labels)) >= min_confidence, labels, -1)
+
+
+def _symmetries(symmetry, K: int) -> list[str]:
+    """The ``K`` part symmetries ``symmetry`` as a list (``None``: ``"none"`` each); :class:`InputError` on another count."""
+    sym = ["none"] * K if symmetry is None else list(symmetry)
+    if len(sym) != K:
+        raise InputError(f"symmetry must name {K} parts, got {len(sym)}")
+    return sym
+
+
+def _check_range_settings(quantile: float, connect_factor: float | None) -> None:
+    """:class:`InputError` unless ``quantile`` lies in ``[0, 0.5)`` and ``connect_factor`` is positive or ``None``."""
+    if not 0.0 <= quantile < 0.5:
+        raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
+    if connect_factor is not None and not connect_factor > 0:
+        raise InputError(f"connect_factor must be positive or None, got {connect_factor!r}")
 
 
 def connected_pieces(points: np.ndarray, factor: float) -> np.ndarray:
@@ -127,9 +157,28 @@ def _checked_cloud(
         raise InputError(f"quantile must lie in [0, 0.5), got {quantile!r}")
     if not connect_factor > 0.0:
         raise InputError(f"connect_factor must be positive, got {connect_factor!r}")
-    if confidence is not None:
-        lab = np.where(_checked_confidence(confidence, len(pts)) >= min_confidence, lab, -1)
-    return T, S, pts, lab
+    return T, S, pts, _confident(lab, confidence, min_confidence)
+
+
+def _checked_sizes(
+    cam_from_part, size_m, measured, priors: CategoryPriors, max_spread: float = 0.0, min_change: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(T, S, measured)`` as float64 / bool copies after the checks the size carries and the stack share:
+    ``(K, 4, 4)`` finite poses, ``(K, 3)`` finite positive sizes and ``(K, 3)`` flags (``None``: none measured)
+    for the priors' ``K`` parts, ``max_spread`` and ``min_change`` ``>= 0``."""
+    T = np.array(cam_from_part, dtype=np.float64)
+    S = np.array(size_m, dtype=np.float64)
+    K = priors.num_parts
+    done = np.zeros((K, 3), dtype=bool) if measured is None else np.array(measured, dtype=bool)
+    if T.shape != (K, 4, 4) or S.shape != (K, 3):
+        raise InputError(f"cam_from_part and size_m must have shapes ({K}, 4, 4) and ({K}, 3), got {T.shape} and {S.shape}")
+    if done.shape != (K, 3):
+        raise InputError(f"measured must have shape ({K}, 3), got {done.shape}")
+    if not (np.isfinite(T).all() and np.isfinite(S).all()) or (S <= 0).any():
+        raise InputError("cam_from_part must be finite and size_m finite and positive")
+    if not (max_spread >= 0 and min_change >= 0):
+        raise InputError(f"max_spread and min_change must be >= 0, got {max_spread!r}, {min_change!r}")
+    return T, S, done
 
 
 def _checked_camera(camera) -> np.ndarray:
@@ -221,8 +270,3 @@ def _checked_scene(cam_from_part, size_m, joint_axis, points, labels, priors: Ca
     if (S <= 0).any():
         raise InputError(f"size_m must be positive, got {S.tolist()}")
     return T, S, u, piv, pts, lab, cam
-
-
-FRONT_MIN_CONFIDENCE = 0.5
-"""Points whose confidence (the probability that they are the object, not the background) is below this do
-not count (as ``ucope.stages.extents.FIT_MIN_CONFIDENCE``)."""

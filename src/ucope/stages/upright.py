@@ -19,16 +19,32 @@ from ..geometry.transforms import rotation_about_axis
 from ..priors import CategoryPriors
 from ..vocab import JointType
 from .base import PoseState, stage
-from .flips import SHAPE_CLIP, ShapeIndex, _shape_misfit
+from .flips import ShapeIndex, _shape_misfit
 from .support import (
     _HALF_TURNS,
+    SHAPE_CLIP,
+    UPRIGHT_MARGIN_DEG,
     _hinged_centre,
 )
 
-UPRIGHT_MARGIN_DEG = 10.0
-"""How far beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt
-before :func:`carry_upright` re-places the part from a neighbour."""
 
+@dataclass(frozen=True)
+class UprightParams:
+    """Attributes:
+    margin_deg: how far beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt
+        before it is re-placed or turned over (0: as soon as it leaves the cone).
+    clip: the template distance cap of a rigid part's fit (unit-box sizes).
+    """
+
+    margin_deg: float = UPRIGHT_MARGIN_DEG
+    clip: float = SHAPE_CLIP
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.margin_deg <= 180.0 and self.clip > 0.0):
+            raise InputError(f"margin_deg must be in [0, 180] and clip > 0, got {self.margin_deg}, {self.clip}")
+
+
+_P = UprightParams()
 
 _CARRY_STEPS = 181
 """Joint states tried per revolute joint by :func:`carry_upright` (evenly over the limits)."""
@@ -62,31 +78,26 @@ def turn_upright(
     part_points: list,
     priors: CategoryPriors,
     shapes: ShapeIndex | None = None,
-    margin_deg: float = UPRIGHT_MARGIN_DEG,
-    clip: float = SHAPE_CLIP,
+    margin_deg: float = _P.margin_deg,
+    clip: float = _P.clip,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Turn a part voted upside down back onto its upright by the half turn its points fit best.
 
-    The parts of an object without joints have no neighbour to be carried from (:func:`carry_upright`). A
-    part with an upright prior (``PartPrior.upright_*``) whose upright axis lies more than
-    ``upright_cone_deg + margin_deg`` from the training views' direction is turned by a half turn about one of
-    its two other axes that brings it within that cone. The votes that saw the part upside down put its
-    centre off as well (by about 0.4 box diagonals on the shipped laptop_rigid), so under each such turn the
-    centre is placed from the part's points (their 1-99 % range in the turned box frame: along each axis the
-    face the camera lies beyond at the points' extreme on that side, the centre half the extent behind it;
-    the middle of the range where the camera lies within it or the range is wider than the box). Where both
-    turns qualify (they differ by a half turn about the upright axis itself), the one whose placed box puts
-    the points nearest the category's shape template stands (``CategoryPriors.shape_templates`` in the unit
-    box, mean distance clipped at ``clip``, as :func:`resolve_shape_flips`; a part symmetric about y, or
-    without a template, takes the first). The size is kept. On the shipped laptop_rigid's test views, 5 of 200
-    were voted upside down, all five half turns from the truth; no view within the training cone is touched.
+    For an object without joints (no neighbour to carry a part from, :func:`carry_upright`): a part with an
+    upright prior (``PartPrior.upright_*``) whose upright axis lies more than ``upright_cone_deg + margin_deg``
+    from the training views' direction is turned by a half turn about one of its two other axes that brings it
+    within that cone, its centre placed from its points under the turn (:func:`_centre_from_points`). Where both
+    turns qualify (they differ by a half turn about the upright axis itself), the one whose placed box puts the
+    points nearest the category's shape template stands (mean distance clipped at ``clip``, as
+    :func:`ucope.stages.flips.resolve_shape_flips`; a part symmetric about y, or without a template, takes the
+    first). Sizes are kept; a part within its cone plus the margin is not touched.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` voted poses (camera frame, metres); size_m: ``(K, 3)`` box extents.
         points: ``(N, 3)`` camera frame; part_points: per part, indices into ``points``.
         priors: the category's priors (upright priors, shape templates); shapes: their :class:`ShapeIndex`
             (built here when ``None`` and needed).
-        margin_deg: tolerance beyond the training cone, degrees (>= 0); clip: as :func:`resolve_shape_flips`.
+        margin_deg: tolerance beyond the training cone, degrees (>= 0); clip: unit-box sizes (> 0).
 
     Returns:
         ``(cam_from_part, turned)``: a copy with the turned parts, and ``(K,)`` bool.
@@ -117,11 +128,8 @@ def turn_upright(
         limit = np.cos(np.radians(part.upright_cone_deg + float(margin_deg)))
         if T[k, :3, a] @ up >= limit:
             continue
-        options = []
-        for i in range(1, 4):  # the half turns about the part's axes: diagonal, flipping the two other axes
-            D = _HALF_TURNS[i]
-            if D[a, a] < 0 and (T[k, :3, :3] @ D)[:, a] @ up >= limit:
-                options.append(D)
+        # the half turns about the part's other axes (diagonal, flipping two axes) that bring it within the cone
+        options = [D for D in _HALF_TURNS[1:] if D[a, a] < 0 and (T[k, :3, :3] @ D)[:, a] @ up >= limit]
         if not options:
             continue
         idx = np.asarray(part_points[k], dtype=np.int64)
@@ -157,7 +165,7 @@ def _centre_from_points(T: np.ndarray, size: np.ndarray, points: np.ndarray) -> 
 
 
 def carry_upright(
-    cam_from_part: np.ndarray, size_m: np.ndarray, priors: CategoryPriors, margin_deg: float = UPRIGHT_MARGIN_DEG
+    cam_from_part: np.ndarray, size_m: np.ndarray, priors: CategoryPriors, margin_deg: float = _P.margin_deg
 ) -> tuple[np.ndarray, np.ndarray]:
     """Re-place, from a neighbour through their joint, each part voted far off its upright.
 
@@ -174,7 +182,7 @@ def carry_upright(
     priors that lack them) it keeps its voted centre. Sizes are kept.
 
     This assumes what the training views show: an upright camera (little roll) looking from the
-    category's elevations. Turn it off for other cameras (``Estimator(upright=False)``).
+    category's elevations; drop the stage ``upright`` for other cameras.
 
     Args:
         cam_from_part: ``(K, 4, 4)`` voted poses; size_m: ``(K, 3)`` voted box extents (metres).
@@ -228,22 +236,6 @@ def carry_upright(
         T[k, :3, 3] = t
         carried[k] = True
     return T, carried
-
-
-@dataclass(frozen=True)
-class UprightParams:
-    """Attributes:
-    margin_deg: how far beyond its training cone (``PartPrior.upright_cone_deg``) a part's upright axis may tilt
-        before it is re-placed or turned over (0: as soon as it leaves the cone).
-    clip: the template distance cap of a rigid part's fit (box diagonals).
-    """
-
-    margin_deg: float = UPRIGHT_MARGIN_DEG
-    clip: float = SHAPE_CLIP
-
-    def __post_init__(self) -> None:
-        if not (0.0 <= self.margin_deg <= 180.0 and self.clip > 0.0):
-            raise InputError(f"margin_deg must be in [0, 180] and clip > 0, got {self.margin_deg}, {self.clip}")
 
 
 @stage(
