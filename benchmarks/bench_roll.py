@@ -7,10 +7,11 @@
 The models were trained on upright cameras (3 degrees of roll). For every model, ``--num`` unseen test views
 of its category (generator defaults, one view per instance, seed ``--seed``) are rolled by each angle of
 ``--rolls`` (:func:`ucope.data.sample.roll_sample`: the same view, the camera turned about its optical axis)
-and estimated three ways: without the upright carry and turn (``upright=False``; ``carried_views`` counts the
-views where either acted), with the defaults, and with the
-world's up direction given (``predict(points, up=...)``, the object's y axis, which the generators stand
-upright: what an IMU would report), which turns the cloud back to an upright camera first. A view succeeds
+and estimated five ways: without the ``upright`` stage (``carried_views`` counts the views where it acted), with
+the defaults, with the world's up direction given (``predict(points, up=...)``, the object's y axis, which the
+generators stand upright: what an IMU would report), which turns the cloud back to an upright camera first, and,
+with floor points under the object added to the cloud (half as many as the object's), with the defaults and with
+the roll read from that support plane (``search.roll_from_plane``). A view succeeds
 when every part is within 10 degrees and 10 % of its ground-truth box diagonal
 (:func:`ucope.eval.evaluate.sample_errors`).
 
@@ -37,11 +38,26 @@ from bench_scale import write_results  # noqa: E402
 
 MODELS = ("laptop", "scissors", "drawer", "camera", "mug")
 ROLLS_DEG = (0.0, 20.0, 45.0, 90.0, 180.0)
-SETTINGS = ("no_carry", "default", "up_given")
+SETTINGS = ("no_carry", "default", "up_given", "floor_default", "floor_plane")
 
 
-def view_record(est: Estimator, sample: dict, up) -> dict:
-    res = est.predict(sample["points"], up=up)
+def with_floor(sample: dict, rng: np.random.Generator, share: float = 0.5) -> np.ndarray:
+    """The sample's points and floor points under the object (the plane it stands on, its y axis the normal, out to
+    1.5x its extent), ``share`` times as many as the object's, those the camera sees from above."""
+    T = np.asarray(sample["cam_from_object"], np.float64)
+    pts = np.asarray(sample["points"], np.float64)
+    local = (pts - T[:3, 3]) @ T[:3, :3]
+    reach = 1.5 * float(np.abs(local[:, [0, 2]]).max())
+    n = int(share * len(pts))
+    xz = rng.uniform(-reach, reach, size=(4 * n, 2))
+    floor = np.column_stack([xz[:, 0], np.full(len(xz), local[:, 1].min()), xz[:, 1]]) @ T[:3, :3].T + T[:3, 3]
+    eye_above = (-T[:3, 3]) @ T[:3, 1] > floor @ T[:3, 1] - T[:3, 3] @ T[:3, 1]  # the camera above the plane
+    floor = floor[(floor[:, 2] > 0.05) & eye_above][:n]
+    return np.concatenate([pts, floor]).astype(np.float32)
+
+
+def view_record(est: Estimator, sample: dict, up, points=None) -> dict:
+    res = est.predict(sample["points"] if points is None else points, up=up)
     err = sample_errors(res, sample)["parts"]
     return {
         "rot_deg": [e["rotation_deg"] for e in err],
@@ -66,6 +82,8 @@ def run_model(name: str, num: int, seed: int, rolls, pairs: int, model_dir: Path
         "no_carry": Estimator.load(src, drop=["upright"], overrides={"vote_parts.num_pairs": pairs}),
         "default": Estimator.load(src, overrides={"vote_parts.num_pairs": pairs}),
         "up_given": Estimator.load(src, overrides={"vote_parts.num_pairs": pairs}),
+        "floor_default": Estimator.load(src, overrides={"vote_parts.num_pairs": pairs}),
+        "floor_plane": Estimator.load(src, overrides={"vote_parts.num_pairs": pairs, "search.roll_from_plane": True}),
     }
     cat = ests["default"].category
     gen = GenerateConfig(category=cat, split="test", num=num, seed=seed, views_per_instance=1)
@@ -74,8 +92,17 @@ def run_model(name: str, num: int, seed: int, rolls, pairs: int, model_dir: Path
     for deg in rolls:
         rolled = [roll_sample(s, np.radians(deg)) for s in samples]
         row = {}
+        floors = [with_floor(s, np.random.default_rng([seed, i])) for i, s in enumerate(rolled)]
         for key, est in ests.items():
-            recs = [view_record(est, s, np.asarray(s["cam_from_object"])[:3, 1] if key == "up_given" else None) for s in rolled]
+            recs = [
+                view_record(
+                    est,
+                    s,
+                    np.asarray(s["cam_from_object"])[:3, 1] if key == "up_given" else None,
+                    floors[i] if key.startswith("floor") else None,
+                )
+                for i, s in enumerate(rolled)
+            ]
             row[key] = summarize(recs)
         out["rolls"][f"{deg:g}"] = row
         cells = " / ".join(f"{100 * row[k]['success']:.0f}" for k in SETTINGS)

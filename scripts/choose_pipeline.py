@@ -11,7 +11,8 @@ where they act. Starting from the model card's pipeline P, each candidate change
 * every optional stage of P left out (the paper's ``vote_parts`` / ``regress_parts``, ``vote_joints``,
   ``joint_states`` and ``score`` always stay);
 * each sub-step of ``fit_boxes`` and ``clean_cloud`` turned off;
-* the search: one size instead of three, three instead of one, no restarts instead of some, the other pick.
+* the search: one size instead of three, three instead of one, no restarts instead of some, the other pick, no
+  roll read from a support plane in view.
 
 A change that makes the pipeline simpler or cheaper is taken when it loses no success on the validation views (a
 stage or a search that changes nothing there is not worth its time and its reading); one that adds work (three
@@ -77,7 +78,7 @@ def measure(est: Estimator, views: list[dict]) -> tuple[np.ndarray, float]:
     return np.array(ok, dtype=bool), ms / len(views)
 
 
-SIMPLER = ("drop ", " off", "one size", "no restarts")
+SIMPLER = ("drop ", " off", "one size", "no restarts", "no roll from a plane")
 """Labels of the changes that make a pipeline simpler or cheaper: taken when they lose nothing. The others (three
 sizes, another pick) are taken only when they gain."""
 
@@ -93,6 +94,8 @@ def candidates(p: Pipeline) -> list[tuple[str, Pipeline]]:
             for sub in subs:
                 if p.params.get(f"{stage}.{sub}", True):
                     out.append((f"{stage}.{sub} off", p.changed(overrides={f"{stage}.{sub}": False})))
+    if p.search.roll_from_plane:
+        out.append(("no roll from a plane", p.changed(overrides={"search.roll_from_plane": False})))
     if p.calibration is not None:
         s = p.search
         if len(s.scale_factors) > 1:

@@ -24,6 +24,7 @@ import torch
 from ..errors import InputError
 from ..geometry.denoise import surface_noise
 from ..geometry.normals import estimate_normals
+from ..geometry.planes import find_support_plane
 from ..geometry.sampling import random_subset
 from ..model.checkpoint import find_model, load_model
 from ..model.network import UCOPENet
@@ -157,13 +158,19 @@ class Estimator:
         t0 = time.perf_counter()
         roll = None if up is None else roll_to_up(up)
         prep = prepare_points(points, normals, MAX_INPUT_POINTS, self.seed, estimate=False, units=units, rotation=roll)
+        given = "given"
+        if up is None and self.pipeline.search.roll_from_plane:
+            roll = self._roll_from_plane(prep.points)
+            if roll is not None:
+                prep = prepare_points(points, normals, MAX_INPUT_POINTS, self.seed, estimate=False, units=units, rotation=roll)
+                given = "estimated from the support plane in view"
         pts, nrm, raw = prep.points, prep.normals, prep.raw
         warnings = list(prep.warnings)
         turned_deg = 0.0 if roll is None else float(np.degrees(np.arctan2(roll[1, 0], roll[0, 0])))
         if abs(turned_deg) > 1.0:
             warnings.append(
                 f"the cloud was turned {turned_deg:.0f} degrees about the optical axis "
-                "to put the given up direction at image up for the estimate; the result is turned back"
+                f"to put the {given} up direction at image up for the estimate; the result is turned back"
             )
         t_prep = time.perf_counter() - t0
         memo: dict = {}  # passes already made, by their input and scale (the searches repeat some)
@@ -200,6 +207,18 @@ class Estimator:
             features=final.features,
             stages=[r.to_dict() for r in final.stages],
         )
+
+    def _roll_from_plane(self, pts: np.ndarray) -> np.ndarray | None:
+        """The roll to take out (:func:`roll_to_up`) where ``pts`` hold a support plane whose normal shows a camera
+        roll above ``search.roll_min_deg``; ``None`` otherwise."""
+        plane = find_support_plane(pts, seed=self.seed)
+        if plane is None:
+            return None
+        try:
+            roll = roll_to_up(plane.normal)
+        except InputError:  # the camera looks straight down at the plane: no roll to read
+            return None
+        return roll if abs(np.degrees(np.arctan2(roll[1, 0], roll[0, 0]))) > self.pipeline.search.roll_min_deg else None
 
     def predict_rgbd(self, depth, intrinsics, mask=None, box=None, depth_scale: float = 1000.0, mask_label=None) -> PoseResult:
         """Estimate the pose from a depth image of the object: :func:`rgbd_points` then :meth:`predict`."""

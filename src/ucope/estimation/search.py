@@ -41,6 +41,9 @@ class SearchPolicy:
         highest lowest score over the parts given at least one point.
     compact_factor: with ``recrop``, the first pass rescales only a compact cloud (its 90th-percentile radius at
         most this factor times twice its median radius): a floor or stray points would make it look large.
+    roll_from_plane: where no ``up`` is given and the cloud holds a support plane (a floor or table the mask let
+        in: :func:`ucope.geometry.planes.find_support_plane`), the plane's normal is taken as the world's up and a
+        camera roll of more than ``roll_min_deg`` it shows is taken out for the estimate (as with ``up``).
     The scale search and the restarts need a calibrated model (their rules compare scores).
     """
 
@@ -53,6 +56,8 @@ class SearchPolicy:
     restart_below: float = 0.8
     pick: str = "all"
     compact_factor: float = 1.8
+    roll_from_plane: bool = False
+    roll_min_deg: float = 5.0
 
     def __post_init__(self) -> None:
         if self.pick not in PICKS:
