@@ -112,7 +112,8 @@ def main() -> int:
         run = args.runs / cat
         model, meta = load_model(run)
         pipeline = Pipeline.from_info(meta.get("info"), model.cfg.priors, model.cfg.head)
-        ds = load_dataset(args.check_data / f"{cat}_val")
+        val = args.check_data / f"{cat}_val"
+        ds = load_dataset(val if val.is_dir() else args.check_data / "val")  # reproduce_models.sh / make_own_category.sh
         n = min(args.check_num, len(ds))
         check = ds[:n]
         ref = evaluate(Estimator(model, pipeline), check, progress=False, keep_samples=False)

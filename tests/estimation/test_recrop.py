@@ -7,7 +7,8 @@ import pytest
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.sample import scale_sample
-from ucope.estimation.estimator import RECROP_MIN_FRACTION, Estimator
+from ucope.estimation.estimator import Estimator
+from ucope.estimation.search import SearchPolicy
 from ucope.eval.metrics import rotation_error_deg
 
 
@@ -35,7 +36,7 @@ def test_a_clean_cloud_in_the_training_sizes_takes_one_pass(mug):
     one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
         s["points"]
     )
-    assert np.mean(one.part_labels < 0) < RECROP_MIN_FRACTION  # the precondition: nothing to leave out
+    assert np.mean(one.part_labels < 0) < SearchPolicy().recrop_min_fraction  # the precondition: nothing to leave out
     two = est.predict(s["points"])
     assert not any("estimated again" in w for w in two.warnings)
     np.testing.assert_array_equal(two.parts[0].cam_from_part, one.parts[0].cam_from_part)

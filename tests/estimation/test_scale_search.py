@@ -8,7 +8,8 @@ import pytest
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.sample import scale_sample
-from ucope.estimation.estimator import RESCALE_CORE_FACTOR, Estimator
+from ucope.estimation.estimator import Estimator
+from ucope.estimation.scales import RESCALE_CORE_FACTOR
 from ucope.eval.evaluate import sample_errors
 from ucope.priors import cloud_radius
 

@@ -29,30 +29,19 @@ from ..geometry.sampling import random_subset
 from ..model.checkpoint import find_model, load_model
 from ..model.network import UCOPENet
 from ..model.pointnet2 import numpy_fps_indices
-from ..priors import cloud_radius
 from ..stages import CloudState, PoseState, run, stage_params
 from ..stages.flips import ShapeIndex
 from ..vocab import AXIS_HEADS, VOTE_HEADS, JointType
 from .inputs import NORMAL_K, label_points, prepare_points, rgbd_points, roll_to_up
 from .pipeline import Pipeline
 from .result import JointEstimate, PartEstimate, PoseResult
+from .scales import extent_warnings, input_scale
 from .search import Pass, recrop, search
 
-__all__ = ["Estimator", "MAX_INPUT_POINTS", "EXTENT_WARN", "EXTENT_REFUSE", "RESCALE_CORE_FACTOR"]
+__all__ = ["Estimator", "MAX_INPUT_POINTS"]
 
 MAX_INPUT_POINTS = 4096
 """Clouds above this many points are subsampled uniformly first (the density of the training views)."""
-
-EXTENT_WARN = 1.5
-"""A cloud whose size (:func:`ucope.priors.cloud_radius`) is more than this factor outside the model's training
-range gets a warning ..."""
-
-EXTENT_REFUSE = 20.0
-"""... and more than this factor outside it is refused (another unit, or not this kind of object)."""
-
-RESCALE_CORE_FACTOR = 1.4
-"""The rescaling measures a cloud by its 90th-percentile radius, but at most this factor times twice its median
-radius (its core), so that a floor seen far behind the object or stray points do not make it look large."""
 
 _TIMINGS = ("preprocess", "encoder", "pair_encoder", "voting", "total")
 
@@ -133,7 +122,6 @@ class Estimator:
     def calibration(self):
         return self.pipeline.calibration
 
-    # ---------------------------------------------------------------------------------- prediction
     def predict(self, points, normals=None, units: str = "m", up=None) -> PoseResult:
         """Estimate the pose of the object whose (segmented) cloud ``points`` is.
 
@@ -152,8 +140,8 @@ class Estimator:
 
         Raises:
             InputError: a cloud that cannot be one object in the camera frame
-                (:func:`ucope.estimation.inputs.prepare_points`), or whose size is more than :data:`EXTENT_REFUSE`
-                times outside the model's training range (with a hint at the units).
+                (:func:`ucope.estimation.inputs.prepare_points`), or far outside the model's training sizes
+                (:func:`ucope.estimation.scales.extent_warnings`, with a hint at the units).
         """
         t0 = time.perf_counter()
         roll = None if up is None else roll_to_up(up)
@@ -228,7 +216,6 @@ class Estimator:
         """Estimate on a data-set sample (its points and normals; the ground truth is not used)."""
         return self.predict(sample["points"], sample["normals"])
 
-    # --------------------------------------------------------------------------------------- passes
     def _pass(self, pts, nrm, units, roll, num_input: int, rescale: bool, normalise=None, memo=None, draw: int = 0) -> Pass:
         """One pass on a prepared cloud ``pts`` ``(P, 3)`` float32 (camera frame, metres, turned by ``roll``) standing
         for ``num_input`` points of the user's cloud: cloud stages, extent checks, rescaling (:meth:`input_scale`
@@ -240,7 +227,7 @@ class Estimator:
         keep = cloud.keep
         pts_c = cloud.points[keep]
         nrm_c = None if nrm is None else nrm[keep]
-        input_warnings = cloud.input_warnings + self._extent_warnings(pts_c, units)
+        input_warnings = cloud.input_warnings + extent_warnings(self.priors, pts_c, units)
         scale, centre = self.input_scale(pts_c, normalise) if rescale else (1.0, np.zeros(3))
         digest = hashlib.blake2b(np.ascontiguousarray(pts).tobytes(), digest_size=16)
         if nrm is not None:
@@ -406,66 +393,7 @@ class Estimator:
         timings = dict.fromkeys(_TIMINGS, 0.0) | {"preprocess": ms}
         return Pass(parts, joints, labels, None, state.features, warnings, input_warnings, timings, records)
 
-    # ------------------------------------------------------------------------------------- scales
     def input_scale(self, points: np.ndarray, normalise: float | None = None) -> tuple[float, np.ndarray]:
-        """``(s, c)``: the factor a pass scales ``points`` ``(N, 3)`` by about their median point ``c`` ``(3,)``
-        (camera frame, metres). 1 unless the pipeline rescales and the cloud's radius ``r``
-        (:func:`ucope.priors.cloud_radius`, at most :data:`RESCALE_CORE_FACTOR` x twice its median radius) lies
-        below the radii the model saw often (``lo``, ``priors.radius_typical_m``) or above the largest it saw
-        (``priors.radius_range_m``); then ``sqrt(lo hi) / r`` with ``[lo, hi]`` the typical radii. ``normalise``:
-        a factor ``f`` (> 0) gives ``f sqrt(lo hi) / r`` whatever ``r`` (the scale search).
-
-        Raises:
-            InputError: ``normalise`` not a positive finite number or None."""
-        if normalise is not None and not (
-            isinstance(normalise, float | int) and not isinstance(normalise, bool) and 0.0 < normalise < np.inf
-        ):
-            raise InputError(f"normalise must be a positive factor or None, got {normalise!r}")
-        pts = np.asarray(points, np.float64)
-        full = self.priors.radius_range_m
-        centre = np.median(pts, axis=0)
-        if not self.pipeline.search.rescale or full is None:
-            return 1.0, centre
-        typ = self.priors.radius_typical_m or full
-        core = 2.0 * float(np.median(np.linalg.norm(pts - centre, axis=1)))
-        r = min(cloud_radius(pts), RESCALE_CORE_FACTOR * core)
-        lo, hi = float(typ[0]), float(typ[1])
-        if r <= 0.0 or (normalise is None and lo <= r <= float(full[1])):
-            return 1.0, centre
-        return float((1.0 if normalise is None else normalise) * np.sqrt(lo * hi) / r), centre
-
-    def _extent_warnings(self, pts: np.ndarray, units: str) -> list[str]:
-        """Refuse a cloud far outside the sizes the model was trained on (with a hint at its units); warn about one
-        outside them, and about one that only far stray points make look far too big."""
-        rng = self.priors.radius_range_m
-        if rng is None:
-            return []
-        r = cloud_radius(pts)
-        lo, hi = rng
-        if r > hi * EXTENT_REFUSE:  # a few far points (a floor seen to the horizon) raise the radius alone: warned
-            core = 2.0 * float(np.median(np.linalg.norm(pts - np.median(pts, axis=0), axis=1)))
-            if core <= hi * EXTENT_REFUSE:
-                return [
-                    f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
-                    f"{self.category} model was trained on, but half of its points lie within {core / 2:.3g} m: far "
-                    "points that are not the object (a floor or background in the mask?) make it look big"
-                ]
-        if lo / EXTENT_REFUSE <= r <= hi * EXTENT_REFUSE:
-            if lo / EXTENT_WARN <= r <= hi * EXTENT_WARN:
-                return []
-            return [
-                f"the cloud's size ({r:.3g} m, 90th-percentile radius) is outside the {lo:.3g}-{hi:.3g} m the "
-                f"{self.category} model was trained on: poses and boxes may be off"
-            ]
-        hint = ""
-        for unit, factor in (("mm", 1000.0), ("cm", 100.0)):
-            if units == "m" and lo / 3 <= r / factor <= hi * 3:
-                hint = f"; it looks like {unit}: pass units='{unit}' (ucope predict --units {unit})"
-                break
-        else:
-            if units != "m" and lo / 3 <= r * {"mm": 1000.0, "cm": 100.0}[units] <= hi * 3:
-                hint = "; it looks like metres already: leave units at 'm'"
-        raise InputError(
-            f"the cloud's size ({r:.3g} m, 90th-percentile radius) is far outside the {lo:.3g}-{hi:.3g} m the "
-            f"{self.category} model was trained on{hint}"
-        )
+        """:func:`ucope.estimation.scales.input_scale` of ``points`` ``(N, 3)`` with this model's priors (1 when the
+        pipeline does not rescale)."""
+        return input_scale(self.priors, points, normalise, self.pipeline.search.rescale)

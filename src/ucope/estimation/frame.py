@@ -188,28 +188,8 @@ def predict_frame(
     t0 = time.perf_counter()
     d = np.asarray(depth)
     m = np.asarray(instance_mask)
-    if d.ndim != 2:
-        raise InputError(f"depth must be an (H, W) image, got shape {d.shape}")
-    if m.shape != d.shape:
-        raise InputError(f"the instance mask is {m.shape}, the depth image {d.shape}: they must be the same size")
-    if not np.issubdtype(m.dtype, np.integer):
-        raise InputError(f"the instance mask must hold integer ids, got dtype {m.dtype}")
-    if not models:
-        raise InputError("no instances given: pass {instance id: model}")
-    present = np.unique(m)
-    missing = sorted(int(i) for i in models if int(i) not in set(present.tolist()))
-    if missing:
-        raise InputError(f"instance id(s) {missing} do not occur in the instance mask (it holds {present.tolist()})")
-    inside = np.ones(d.shape, bool)
-    if box is not None:
-        b = np.asarray(box, np.float64).reshape(-1)
-        if b.shape != (4,) or not np.all(np.isfinite(b)):
-            raise InputError(f"box must be 4 finite numbers (x_min, y_min, x_max, y_max), got {box!r}")
-        x0, y0, x1, y1 = (int(np.floor(b[0])), int(np.floor(b[1])), int(np.ceil(b[2])), int(np.ceil(b[3])))
-        if not (0 <= x0 < x1 <= d.shape[1] and 0 <= y0 < y1 <= d.shape[0]):
-            raise InputError(f"box {b.tolist()} is not a box inside the {d.shape[1]}x{d.shape[0]} image")
-        inside[:] = False
-        inside[y0:y1, x0:x1] = True
+    _check_frame(d, m, models)
+    inside = _box_mask(box, d.shape)
     opts = dict(estimator_options or {})
     cache: dict[str, Estimator] = {}
     objects = []
@@ -236,6 +216,39 @@ def predict_frame(
         depth_scale=float(depth_scale),
     )
     return FrameResult(objects, src, {"total": 1e3 * (time.perf_counter() - t0)})
+
+
+def _check_frame(d: np.ndarray, m: np.ndarray, models: Mapping) -> None:
+    """A depth image ``d`` and an integer instance mask ``m`` of its size holding every id of ``models``."""
+    if d.ndim != 2:
+        raise InputError(f"depth must be an (H, W) image, got shape {d.shape}")
+    if m.shape != d.shape:
+        raise InputError(f"the instance mask is {m.shape}, the depth image {d.shape}: they must be the same size")
+    if not np.issubdtype(m.dtype, np.integer):
+        raise InputError(f"the instance mask must hold integer ids, got dtype {m.dtype}")
+    if not models:
+        raise InputError("no instances given: pass {instance id: model}")
+    present = np.unique(m)
+    missing = sorted(int(i) for i in models if int(i) not in set(present.tolist()))
+    if missing:
+        raise InputError(f"instance id(s) {missing} do not occur in the instance mask (it holds {present.tolist()})")
+
+
+def _box_mask(box, shape: tuple[int, ...]) -> np.ndarray:
+    """``(H, W)`` bool: the pixels inside ``box`` ``(x_min, y_min, x_max, y_max)`` (max exclusive; fractional
+    bounds widened to whole pixels), or every pixel when ``box`` is ``None``."""
+    inside = np.ones(shape, bool)
+    if box is None:
+        return inside
+    b = np.asarray(box, np.float64).reshape(-1)
+    if b.shape != (4,) or not np.all(np.isfinite(b)):
+        raise InputError(f"box must be 4 finite numbers (x_min, y_min, x_max, y_max), got {box!r}")
+    x0, y0, x1, y1 = (int(np.floor(b[0])), int(np.floor(b[1])), int(np.ceil(b[2])), int(np.ceil(b[3])))
+    if not (0 <= x0 < x1 <= shape[1] and 0 <= y0 < y1 <= shape[0]):
+        raise InputError(f"box {b.tolist()} is not a box inside the {shape[1]}x{shape[0]} image")
+    inside[:] = False
+    inside[y0:y1, x0:x1] = True
+    return inside
 
 
 def _estimator_for(spec, cache: dict, opts: dict):

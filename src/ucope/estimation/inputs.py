@@ -132,9 +132,8 @@ def roll_to_up(up) -> np.ndarray:
         raise InputError(f"up must be a finite, non-zero 3-vector in the camera frame, got {up!r}") from None
     if u.shape != (3,) or not np.all(np.isfinite(u)) or not np.any(u != 0):
         raise InputError(f"up must be a finite, non-zero 3-vector in the camera frame, got {u.tolist()}")
-    u = u / np.max(
-        np.abs(u)
-    )  # first to the largest component: the norm of huge or tiny components neither overflows nor underflows
+    # first to the largest component: the norm of huge or tiny components neither overflows nor underflows
+    u = u / np.max(np.abs(u))
     u = u / np.linalg.norm(u)
     if np.hypot(u[0], u[1]) < np.sin(np.radians(10.0)):
         raise InputError(
@@ -179,24 +178,8 @@ def prepare_points(
             are not usable), coincident or collinear points, most points behind the camera (z <= 0: not
             the camera frame), an unknown unit. Each message names the problem.
     """
-    if units not in UNITS:
-        raise InputError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
-    if int(max_points) < MIN_POINTS:
-        raise InputError(f"max_input_points must be at least {MIN_POINTS}, got {max_points}")
-    pts = _array(points, "points")
-    if pts.ndim not in (2, 3) or pts.shape[-1] != 3 or pts.size == 0 and pts.ndim != 2:
-        raise InputError(f"points must have shape (N, 3) or (H, W, 3), got {pts.shape}")
-    shape = pts.shape[:-1]
-    pts = pts.reshape(-1, 3) * UNITS[units]
+    pts, nrm, shape = _read_cloud(points, normals, max_points, units)
     n_in = len(pts)
-    if n_in == 0:
-        raise InputError("the point cloud is empty")
-    nrm = None
-    if normals is not None:
-        nrm = _array(normals, "normals")
-        if nrm.shape[:-1] != shape or nrm.shape[-1:] != (3,):
-            raise InputError(f"normals must have the points' shape {(*shape, 3)}, got {nrm.shape}")
-        nrm = nrm.reshape(-1, 3)
     with np.errstate(invalid="ignore"):
         far = (np.abs(pts) > MAX_COORDINATE_M).any(axis=1) & np.isfinite(pts).all(axis=1)  # before a turn can overflow
     n_far = int(np.count_nonzero(far))
@@ -209,25 +192,73 @@ def prepare_points(
     finite = np.isfinite(pts).all(axis=1) & ~far
     if nrm is not None:
         finite &= np.isfinite(nrm).all(axis=1) & (nrm != 0).any(axis=1)
-    n_ok = int(finite.sum())
-    notes: list[str] = []
-    far_text = ""
-    if n_far:
-        far_text = f"{n_far} have a coordinate beyond {MAX_COORDINATE_M:.0e} m, up to {top:.3g} m: wrong units or a corrupt file?"
+    notes = _dropped_notes(n_in, int(finite.sum()), n_far, top, organised=len(shape) != 1)
+    kept = np.flatnonzero(finite)
+    sub = kept[canonical_subset(pts[kept], int(max_points), seed, None if nrm is None else nrm[kept])]
+    p = pts[sub]
+    notes += _shape_notes(pts[kept, 2], p)
+    n = None
+    if nrm is not None:
+        n = nrm[sub] / np.abs(nrm[sub]).max(axis=1, keepdims=True)  # no overflow of the norm of huge normals
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        n = np.where((n * p).sum(axis=1, keepdims=True) > 0, -n, n)  # face the camera (at the origin)
+        n = n.astype(np.float32)
+    elif estimate:
+        n = estimate_normals(p, k=normal_k)
+    return PreparedCloud(points=p.astype(np.float32), normals=n, raw=pts, finite=finite, shape=tuple(shape), warnings=notes)
+
+
+def _read_cloud(points, normals, max_points: int, units: str) -> tuple[np.ndarray, np.ndarray | None, tuple]:
+    """``(points (N, 3) metres, normals (N, 3) or None, leading shape)`` of a cloud, its options checked."""
+    if units not in UNITS:
+        raise InputError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+    if int(max_points) < MIN_POINTS:
+        raise InputError(f"max_input_points must be at least {MIN_POINTS}, got {max_points}")
+    pts = _array(points, "points")
+    if pts.ndim not in (2, 3) or pts.shape[-1] != 3 or pts.size == 0 and pts.ndim != 2:
+        raise InputError(f"points must have shape (N, 3) or (H, W, 3), got {pts.shape}")
+    shape = pts.shape[:-1]
+    pts = pts.reshape(-1, 3) * UNITS[units]
+    if len(pts) == 0:
+        raise InputError("the point cloud is empty")
+    nrm = None
+    if normals is not None:
+        nrm = _array(normals, "normals")
+        if nrm.shape[:-1] != shape or nrm.shape[-1:] != (3,):
+            raise InputError(f"normals must have the points' shape {(*shape, 3)}, got {nrm.shape}")
+        nrm = nrm.reshape(-1, 3)
+    return pts, nrm, shape
+
+
+def _dropped_notes(n_in: int, n_ok: int, n_far: int, top: float, organised: bool) -> list[str]:
+    """Warnings about the ``n_in - n_ok`` dropped rows (``n_far`` of them beyond :data:`MAX_COORDINATE_M`,
+    up to ``top`` metres; NaN rows of an ``organised`` cloud are missing pixels, not worth a warning).
+
+    Raises :class:`InputError` when fewer than :data:`MIN_POINTS` rows are usable."""
     if n_ok < MIN_POINTS:
-        why = far_text if n_far and n_ok + n_far >= MIN_POINTS else "NaN / Inf coordinates or zero normals dropped"
+        why = "NaN / Inf coordinates or zero normals dropped"
+        if n_far and n_ok + n_far >= MIN_POINTS:
+            why = f"{n_far} have a coordinate beyond {MAX_COORDINATE_M:.0e} m, up to {top:.3g} m: wrong units or a corrupt file?"
         raise InputError(f"only {n_ok} of {n_in} points are usable ({why}); at least {MIN_POINTS} are needed")
+    notes: list[str] = []
     if n_far:
         notes.append(
             f"dropped {n_far} of {n_in} points with a coordinate beyond {MAX_COORDINATE_M:.0e} m (up to {top:.3g} m): "
             "wrong units or a corrupt file?"
         )
-    if n_ok + n_far < n_in and len(shape) == 1:  # an organised cloud marks missing pixels with NaN: nothing to warn about
+    if n_ok + n_far < n_in and not organised:
         notes.append(f"dropped {n_in - n_ok - n_far} of {n_in} points with NaN / Inf coordinates or normals")
-    kept = np.flatnonzero(finite)
-    sub = kept[canonical_subset(pts[kept], int(max_points), seed, None if nrm is None else nrm[kept])]
-    p = pts[sub]
-    behind = float(np.mean(pts[kept, 2] <= 0.0))
+    return notes
+
+
+def _shape_notes(z: np.ndarray, p: np.ndarray) -> list[str]:
+    """Warnings about a cloud in front of the camera (``z`` ``(N,)`` of its usable rows) whose kept points
+    ``p`` ``(P, 3)`` span a surface.
+
+    Raises :class:`InputError` when most points lie behind the camera (not the camera frame), or all
+    points coincide or lie on a line."""
+    notes: list[str] = []
+    behind = float(np.mean(z <= 0.0))
     if behind > 0.5:
         raise InputError(
             f"{100 * behind:.0f} % of the points lie behind the camera (z <= 0): the cloud must be in the camera "
@@ -244,15 +275,7 @@ def prepare_points(
         )
     if ev[2] < 1e-4 * ev[1]:
         notes.append(f"the points lie in one plane (spreads {ev[0]:.3g} / {ev[1]:.3g} / {ev[2]:.2g} m)")
-    n = None
-    if nrm is not None:
-        n = nrm[sub] / np.abs(nrm[sub]).max(axis=1, keepdims=True)  # no overflow of the norm of huge normals
-        n = n / np.linalg.norm(n, axis=1, keepdims=True)
-        n = np.where((n * p).sum(axis=1, keepdims=True) > 0, -n, n)  # face the camera (at the origin)
-        n = n.astype(np.float32)
-    elif estimate:
-        n = estimate_normals(p, k=normal_k)
-    return PreparedCloud(points=p.astype(np.float32), normals=n, raw=pts, finite=finite, shape=tuple(shape), warnings=notes)
+    return notes
 
 
 def label_points(raw: np.ndarray, finite: np.ndarray, ref: np.ndarray, ref_labels: np.ndarray, grid: int = 64) -> np.ndarray:
@@ -265,9 +288,8 @@ def label_points(raw: np.ndarray, finite: np.ndarray, ref: np.ndarray, ref_label
 
     Clouds of up to 2^18 usable points get an exact nearest-neighbour query. Larger ones look their
     label up in a ``grid^3`` lattice over ``ref``'s bounding box whose cells carry the label of the
-    ``ref`` point nearest their centre (cells of ~1.6 % of the object's extent, finer than the spacing of
-    the network's 1024 points); points outside the lattice get the exact query. O(N), no sort:
-    benchmarks/bench_predict.py times it on 10 million points.
+    ``ref`` point nearest their centre (``grid=64``: cells of ~1.6 % of ``ref``'s extent); points outside
+    the lattice get the exact query. O(N), no sort.
     """
     from scipy.spatial import cKDTree
 

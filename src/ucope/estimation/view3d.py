@@ -1,9 +1,9 @@
 """A 3D viewer of estimates in the browser (the ``view`` extra: ``pip install "ucope[view]"``, viser).
 
-Each :class:`~ucope.estimation.draw.Scene` (one frame or one cloud) shows its clouds coloured by
+Each :class:`~ucope.estimation.draw_scene.Scene` (one frame or one cloud) shows its clouds coloured by
 predicted part, every part's box (translucent faces in the part colour and thick edges a shade darker,
 so that a box stands out of its own points; faded for a part scoring below
-:data:`~ucope.estimation.draw.LOW_SCORE`; the ground truth's grey), its frame's axis triad (x red,
+:data:`~ucope.estimation.draw_scene.LOW_SCORE`; the ground truth's grey), its frame's axis triad (x red,
 y green, z blue), its joint axes (black, labelled with type and state) and a label with the object's
 name (several objects), the part's name and score; several scenes are laid side by side along x. The
 side panel lists the parts with their scores (and errors when known); the standalone HTML carries the
@@ -19,12 +19,8 @@ first scene, from where its objects fill most of the view.
 Coordinates are the camera frame (OpenCV: x right, y down, z forward), metres; the viewer's up is -y
 and it opens looking along the camera's line of sight towards the first scene, from closer by.
 
-Why viser and not rerun: measured on the project's build machine (Python 3.11, x86-64 Linux), viser
-1.1.1 is a 3.6 MB wheel that adds about 46 MB with its dependencies to ``ucope[all]`` and
-imports in 0.5 s (48 MB resident); rerun-sdk 0.41.0 is a 171 MB wheel that adds about 690 MB
-(its native viewer 280 MB, bindings 210 MB, pyarrow 170 MB) and imports in 0.8 s (94 MB resident).
-viser also fits a CPU-first library used over SSH: a browser page, no native window, and a standalone
-HTML export that a headless browser can render (that is how the tests check it).
+viser (not rerun) fits a CPU-first library used over SSH: a small dependency, a browser page (no native
+window), and a standalone HTML export that opens in any browser.
 """
 
 from __future__ import annotations
@@ -41,7 +37,7 @@ import numpy as np
 from ..errors import InputError
 from ..fileio import atomic_write_text
 from ..geometry.boxes import BOX_EDGES, box_corners
-from .draw import AXIS_COLOURS, LOW_SCORE, Scene, legend_lines, part_colours, warning_lines
+from .draw_scene import AXIS_COLOURS, LOW_SCORE, DrawnObject, Scene, legend_lines, part_colours, warning_lines
 
 __all__ = ["viser_module", "build_scene", "show", "write_html", "legend_html", "check_address"]
 
@@ -114,82 +110,8 @@ def build_scene(server, scenes: Sequence[Scene], max_points: int = 20000) -> lis
             names.append(f"{root}/title")
         diag = float(np.linalg.norm(hi - lo))
         for j, (obj, cols) in enumerate(zip(scene.objects, part_colours(scene.objects), strict=False)):
-            base = f"{root}/object_{j}"
-            r = obj.result
-            if obj.points is not None:
-                pts = np.asarray(obj.points, np.float64).reshape(-1, 3)
-                labels = np.asarray(r.part_labels)
-                if len(labels) != len(pts):
-                    labels = np.zeros(len(pts), np.int64)
-                ok = (labels >= 0) & np.isfinite(pts).all(axis=1)
-                pts, labels = pts[ok], labels[ok]
-                if len(pts) > max_points:
-                    sel = np.linspace(0, len(pts) - 1, max_points).astype(np.int64)
-                    pts, labels = pts[sel], labels[sel]
-                palette = np.array([_rgb(c) for c in cols], np.uint8)
-                sc.add_point_cloud(
-                    f"{base}/points",
-                    pts.astype(np.float32),
-                    palette[np.clip(labels, 0, len(cols) - 1)],
-                    point_size=max(0.001, 0.004 * diag),
-                    point_shape="circle",
-                    precision="float32",
-                )
-                names.append(f"{base}/points")
-            corners = box_corners(r.cam_from_part, r.size_m)  # (K, 8, 3)
-            low = [not obj.truth and float(p.score) < LOW_SCORE for p in r.parts]
-            # edges a shade darker than the part's points (faded towards white for a low score)
-            edge = np.array([_shade(_rgb(c), 1.6 if lo else 0.6) for c, lo in zip(cols, low, strict=True)], np.uint8)
-            seg = corners[:, BOX_EDGES].reshape(-1, 2, 3)
-            seg_col = np.repeat(edge, len(BOX_EDGES), axis=0)
-            sc.add_line_segments(
-                f"{base}/boxes",
-                seg.astype(np.float32),
-                np.repeat(seg_col[:, None], 2, axis=1),
-                thickness=5.0,
-                thickness_units="screen",
-            )
-            names.append(f"{base}/boxes")
             part_text, joint_text = legend_lines(obj)
-            for k, p in enumerate(r.parts):
-                T = np.asarray(p.cam_from_part, np.float64)
-                sc.add_box(
-                    f"{base}/box_{k}",
-                    color=_rgb(cols[k]),
-                    dimensions=tuple(float(v) for v in np.maximum(np.asarray(p.size_m, np.float64), 1e-4)),
-                    opacity=0.08 if low[k] else 0.18,
-                    side="double",
-                    cast_shadow=False,
-                    receive_shadow=False,
-                    wxyz=_wxyz(T[:3, :3]),
-                    position=T[:3, 3],
-                )
-                L = 0.3 * float(np.max(p.size_m))
-                sc.add_frame(f"{base}/part_{k}", axes_length=L, axes_radius=0.04 * L, wxyz=_wxyz(T[:3, :3]), position=T[:3, 3])
-                top = corners[k][np.argmin(corners[k][:, 1])]  # the corner highest in the picture (-y is up)
-                text = p.label if obj.truth else f"{p.label} {p.score:.2f}" + (" (low)" if low[k] else "")
-                if obj.name:
-                    text = f"{obj.name}: {text}"
-                sc.add_label(f"{base}/label_{k}", text, position=top, anchor="bottom-center")
-                names += [f"{base}/box_{k}", f"{base}/part_{k}", f"{base}/label_{k}"]
-            for q, jt in enumerate(r.joints):
-                piv = np.asarray(jt.pivot_m if jt.pivot_m is not None else r.parts[jt.child].cam_from_part[:3, 3], np.float64)
-                u = np.asarray(jt.axis, np.float64) / (np.linalg.norm(jt.axis) + 1e-12)
-                ends = np.stack([piv - 0.3 * diag * u, piv + 0.3 * diag * u])
-                sc.add_line_segments(
-                    f"{base}/joint_{q}", ends[None].astype(np.float32), (20, 20, 20), thickness=4.0, thickness_units="screen"
-                )
-                sc.add_label(
-                    f"{base}/joint_label_{q}", joint_text[q].split("  |")[0].split(": ")[-1], position=ends[1], anchor="top-left"
-                )
-                names += [f"{base}/joint_{q}", f"{base}/joint_label_{q}"]
-            if obj.sample is not None:
-                g = box_corners(np.asarray(obj.sample["cam_from_part"], np.float64), np.asarray(obj.sample["size_m"], np.float64))
-                gseg = g[:, BOX_EDGES].reshape(-1, 2, 3)
-                sc.add_line_segments(
-                    f"{base}/gt_boxes", gseg.astype(np.float32), (128, 128, 128), thickness=1.5, thickness_units="screen"
-                )
-                names.append(f"{base}/gt_boxes")
+            names += _add_object(sc, f"{root}/object_{j}", obj, cols, diag, max_points, joint_text)
             notes += [f"- **{scene.title or f'scene {i}'}**: " + t for t in part_text + joint_text]
         notes += [f"- **{scene.title or f'scene {i}'}**: {w}" for w in warning_lines(scene)]
     server.gui.add_markdown(
@@ -201,6 +123,99 @@ def build_scene(server, scenes: Sequence[Scene], max_points: int = 20000) -> lis
     server.initial_camera.position = tuple(float(v) for v in eye)
     server.initial_camera.look_at = tuple(float(v) for v in centre)
     server.initial_camera.up = (0.0, -1.0, 0.0)
+    return names
+
+
+def _add_object(sc, base: str, obj: DrawnObject, cols: Sequence[str], diag: float, max_points: int, joint_text) -> list[str]:
+    """Add one object under ``base``: its cloud, boxes, triads, labels, joint axes (``joint_text``: their
+    legend lines) and ground-truth boxes; ``diag``: the scene's diagonal (metres). Returns the node names."""
+    names: list[str] = []
+    r = obj.result
+    if obj.points is not None:
+        names.append(_add_points(sc, f"{base}/points", obj, cols, diag, max_points))
+    names += _add_parts(sc, base, obj, cols)
+    for q, jt in enumerate(r.joints):
+        piv = np.asarray(jt.pivot_m if jt.pivot_m is not None else r.parts[jt.child].cam_from_part[:3, 3], np.float64)
+        u = np.asarray(jt.axis, np.float64) / (np.linalg.norm(jt.axis) + 1e-12)
+        ends = np.stack([piv - 0.3 * diag * u, piv + 0.3 * diag * u])
+        sc.add_line_segments(
+            f"{base}/joint_{q}", ends[None].astype(np.float32), (20, 20, 20), thickness=4.0, thickness_units="screen"
+        )
+        sc.add_label(
+            f"{base}/joint_label_{q}", joint_text[q].split("  |")[0].split(": ")[-1], position=ends[1], anchor="top-left"
+        )
+        names += [f"{base}/joint_{q}", f"{base}/joint_label_{q}"]
+    if obj.sample is not None:
+        g = box_corners(np.asarray(obj.sample["cam_from_part"], np.float64), np.asarray(obj.sample["size_m"], np.float64))
+        gseg = g[:, BOX_EDGES].reshape(-1, 2, 3)
+        sc.add_line_segments(
+            f"{base}/gt_boxes", gseg.astype(np.float32), (128, 128, 128), thickness=1.5, thickness_units="screen"
+        )
+        names.append(f"{base}/gt_boxes")
+    return names
+
+
+def _add_points(sc, name: str, obj: DrawnObject, cols: Sequence[str], diag: float, max_points: int) -> str:
+    """Add an object's finite points on a part (at most ``max_points``, evenly spread) in part colours."""
+    pts = np.asarray(obj.points, np.float64).reshape(-1, 3)
+    labels = np.asarray(obj.result.part_labels)
+    if len(labels) != len(pts):
+        labels = np.zeros(len(pts), np.int64)
+    ok = (labels >= 0) & np.isfinite(pts).all(axis=1)
+    pts, labels = pts[ok], labels[ok]
+    if len(pts) > max_points:
+        sel = np.linspace(0, len(pts) - 1, max_points).astype(np.int64)
+        pts, labels = pts[sel], labels[sel]
+    palette = np.array([_rgb(c) for c in cols], np.uint8)
+    sc.add_point_cloud(
+        name,
+        pts.astype(np.float32),
+        palette[np.clip(labels, 0, len(cols) - 1)],
+        point_size=max(0.001, 0.004 * diag),
+        point_shape="circle",
+        precision="float32",
+    )
+    return name
+
+
+def _add_parts(sc, base: str, obj: DrawnObject, cols: Sequence[str]) -> list[str]:
+    """Add every part's box (edges a shade darker than its points, faded towards white for a low score;
+    translucent faces), its frame's triad and its label; returns the node names."""
+    r = obj.result
+    corners = box_corners(r.cam_from_part, r.size_m)  # (K, 8, 3)
+    low = [not obj.truth and float(p.score) < LOW_SCORE for p in r.parts]
+    edge = np.array([_shade(_rgb(c), 1.6 if lo else 0.6) for c, lo in zip(cols, low, strict=True)], np.uint8)
+    seg = corners[:, BOX_EDGES].reshape(-1, 2, 3)
+    seg_col = np.repeat(edge, len(BOX_EDGES), axis=0)
+    sc.add_line_segments(
+        f"{base}/boxes",
+        seg.astype(np.float32),
+        np.repeat(seg_col[:, None], 2, axis=1),
+        thickness=5.0,
+        thickness_units="screen",
+    )
+    names = [f"{base}/boxes"]
+    for k, p in enumerate(r.parts):
+        T = np.asarray(p.cam_from_part, np.float64)
+        sc.add_box(
+            f"{base}/box_{k}",
+            color=_rgb(cols[k]),
+            dimensions=tuple(float(v) for v in np.maximum(np.asarray(p.size_m, np.float64), 1e-4)),
+            opacity=0.08 if low[k] else 0.18,
+            side="double",
+            cast_shadow=False,
+            receive_shadow=False,
+            wxyz=_wxyz(T[:3, :3]),
+            position=T[:3, 3],
+        )
+        L = 0.3 * float(np.max(p.size_m))
+        sc.add_frame(f"{base}/part_{k}", axes_length=L, axes_radius=0.04 * L, wxyz=_wxyz(T[:3, :3]), position=T[:3, 3])
+        top = corners[k][np.argmin(corners[k][:, 1])]  # the corner highest in the picture (-y is up)
+        text = p.label if obj.truth else f"{p.label} {p.score:.2f}" + (" (low)" if low[k] else "")
+        if obj.name:
+            text = f"{obj.name}: {text}"
+        sc.add_label(f"{base}/label_{k}", text, position=top, anchor="bottom-center")
+        names += [f"{base}/box_{k}", f"{base}/part_{k}", f"{base}/label_{k}"]
     return names
 
 
