@@ -119,7 +119,7 @@ def test_predict_a_segmented_cloud_with_instance_ids(frame_files, tmp_path, caps
     assert doc["source"]["input"].endswith(f"seg.{fmt}") and len(read_bop_csv(tmp_path / "f.csv")) == 3
     # without --instances the cloud is one object, and the command says so
     one = ["predict", "--model", "mug", "--input", str(tmp_path / "seg.npz"), "--out", str(tmp_path / "one.json")]
-    assert main([*one, "--pairs", "500", "--no-scale-search", "--no-recrop"]) == 0
+    assert main([*one, "--pairs", "500", "--fast"]) == 0
     assert "carries per-point instance ids [1, 2]: estimated as one object" in capsys.readouterr().err
 
 

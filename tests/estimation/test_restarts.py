@@ -1,5 +1,5 @@
 """The estimator's restarts (``search.restarts``): further estimates from other draws of the network's
-points and pairs while the best object score stays below ``RESTART_BELOW``, the highest-scored standing."""
+points and pairs while the best object score stays below ``search.restart_below``, the highest-scored standing."""
 
 from __future__ import annotations
 
@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 
 from ucope.data.generate import GenerateConfig, make_sample
-from ucope.estimation.estimator import RESTART_BELOW, Estimator, _object_score
+from ucope.estimation.estimator import Estimator
+from ucope.estimation.search import SearchPolicy
 from ucope.eval.evaluate import sample_errors, view_success
+
+RESTART_BELOW = SearchPolicy().restart_below
 
 DRAWER_TEST = GenerateConfig(category="drawer", split="test", num=200, seed=0)
 """The drawer's test split as docs/results.md evaluates it (``ucope generate --split test --num 200``)."""
@@ -26,7 +29,7 @@ def spy(monkeypatch):
 
     def record(self, *args, **kwargs):
         est = original(self, *args, **kwargs)
-        calls.append((kwargs.get("draw", 0), kwargs.get("normalise"), _object_score(est.final)))
+        calls.append((kwargs.get("draw", 0), kwargs.get("normalise"), est.final.score))
         return est
 
     monkeypatch.setattr(Estimator, "_estimate", record)

@@ -95,24 +95,26 @@ def test_the_wide_search_gets_a_view_right_that_the_middle_alone_gets_wrong():
 
 
 def test_the_wide_search_returns_the_best_scored_of_its_estimates_each_made_afresh():
-    """The reference: the first estimate and one per factor of WIDE_SCALE_SEARCH, each made without the
+    """The reference: the first estimate and one per factor of the wide search (0.8, 1, 1.25), each made without the
     memo of passes; the search (which reuses identical passes) returns the best-scored of them (ties: the
     earliest), unchanged. A cloud at 0.5x is rescaled by the first estimate exactly as by factor 1, so
     the memo is used."""
-    from ucope.estimation.estimator import WIDE_SCALE_SEARCH, _object_score
+    from ucope.estimation.estimator import MAX_INPUT_POINTS
     from ucope.estimation.inputs import prepare_points
+
+    wide = (0.8, 1.0, 1.25)
 
     gen = GenerateConfig(category="laptop", split="test", num=30, seed=11, views_per_instance=1)
     s = scale_sample(make_sample(gen, 4), 0.5)
     est = Estimator.load("laptop", overrides={"vote_parts.num_pairs": 2000, "search.scale_factors": [0.8, 1.0, 1.25]})
     got = est.predict(s["points"])
-    prep = prepare_points(s["points"], None, est.max_input_points, est.seed, estimate=False)
+    prep = prepare_points(s["points"], None, MAX_INPUT_POINTS, est.seed, estimate=False)
     args = (prep.points, prep.normals, "m", None, len(prep.raw))
-    made = [est._estimate(*args, normalise=f) for f in (None, *WIDE_SCALE_SEARCH)]
-    assert _object_score(made[0].final) < 0.9  # the search runs
+    made = [est._estimate(*args, normalise=f) for f in (None, *wide)]
+    assert made[0].final.score < 0.9  # the search runs
     assert made[2].final.parts[0].cam_from_part.tolist() == made[0].final.parts[0].cam_from_part.tolist()
-    best = max(range(len(made)), key=lambda i: (_object_score(made[i].final), -i))
-    assert got.score == _object_score(made[best].final)
+    best = max(range(len(made)), key=lambda i: (made[i].final.score, -i))
+    assert got.score == made[best].final.score
     for pa, pb in zip(got.parts, made[best].final.parts, strict=True):
         np.testing.assert_array_equal(pa.cam_from_part, pb.cam_from_part)
         np.testing.assert_array_equal(pa.size_m, pb.size_m)

@@ -1,13 +1,11 @@
 """The :class:`Estimator`: a trained network and its pipeline, from a point cloud (or RGB-D frame) to a
-:class:`ucope.estimation.result.PoseResult`.
-
-:meth:`Estimator.predict` prepares the cloud (checks, units, the roll to a given ``up``, a canonical order and
-subset), then the search policy (:mod:`ucope.estimation.search`) makes one or more estimates. Each pass of an
-estimate runs the cloud stages, rescales the cloud into the model's training sizes where needed, runs the network
-on ``num_points`` of its points (one draw: part masks, segmentation, joint heads, the pair heads on ``num_pairs``
-pairs) and then the pose stages of the model's pipeline (:mod:`ucope.stages`), and scales and turns the result
-back. ``result.stages`` says what each stage of the estimate that stands did; ``result.timings_ms`` sums every
-estimate made. Every random draw comes from ``seed``: the same input gives the same result.
+:class:`ucope.estimation.result.PoseResult`. :meth:`Estimator.predict` prepares the cloud (checks, units, the roll
+to a given ``up``, a canonical order and subset), then the search policy (:mod:`ucope.estimation.search`) makes one
+or more estimates. Each pass of an estimate runs the cloud stages, rescales the cloud into the model's training
+sizes where needed, runs the network on ``num_points`` of its points (one draw: part masks, segmentation, joint
+heads, the pair heads on ``num_pairs`` pairs) and then the pose stages of the model's pipeline
+(:mod:`ucope.stages`), and scales and turns the result back. ``result.stages`` says what each stage of the estimate
+that stands did; ``result.timings_ms`` sums every estimate made. Every random draw comes from ``seed``.
 """
 
 from __future__ import annotations
@@ -36,13 +34,12 @@ from .inputs import NORMAL_K, label_points, prepare_points, rgbd_points, roll_to
 from .pipeline import Pipeline
 from .result import JointEstimate, PartEstimate, PoseResult
 from .scales import extent_warnings, input_scale
-from .search import Pass, recrop, search
+from .search import Estimate, Pass, recrop, search
 
 __all__ = ["Estimator", "MAX_INPUT_POINTS"]
 
 MAX_INPUT_POINTS = 4096
 """Clouds above this many points are subsampled uniformly first (the density of the training views)."""
-
 _TIMINGS = ("preprocess", "encoder", "pair_encoder", "voting", "total")
 
 
@@ -162,17 +159,11 @@ class Estimator:
             )
         t_prep = time.perf_counter() - t0
         memo: dict = {}  # passes already made, by their input and scale (the searches repeat some)
-        policy = self.pipeline.search
 
         def estimate(normalise, draw):
-            def run_pass(p, n, num_input, rescale, **kw):
-                return self._pass(p, n, units, roll, num_input, rescale, normalise=normalise, memo=memo, draw=draw)
+            return self._estimate(pts, nrm, units, roll, len(raw), normalise=normalise, memo=memo, draw=draw)
 
-            return recrop(
-                policy, run_pass, lambda p: self.input_scale(p, normalise)[0] != 1.0, pts, nrm, len(raw), normalise=normalise
-            )
-
-        est, timings, _ = search(policy, estimate, self.calibration is not None)
+        est, timings, _ = search(self.pipeline.search, estimate, self.calibration is not None)
         final = est.final
         warnings = list(dict.fromkeys(warnings + est.warnings + final.input_warnings + final.warnings))
         t4 = time.perf_counter()
@@ -215,6 +206,16 @@ class Estimator:
     def predict_sample(self, sample: dict) -> PoseResult:
         """Estimate on a data-set sample (its points and normals; the ground truth is not used)."""
         return self.predict(sample["points"], sample["normals"])
+
+    def _estimate(self, pts, nrm, units, roll, num_input: int, normalise=None, memo=None, draw: int = 0) -> Estimate:
+        """One estimate of the prepared cloud ``pts`` (one or two passes: :func:`ucope.estimation.search.recrop`) at the
+        scale ``normalise`` gives (:meth:`input_scale`) and on draw ``draw`` of the network's points."""
+
+        def run_pass(p, n, k, rescale, **kw):
+            return self._pass(p, n, units, roll, k, rescale, normalise=normalise, memo=memo, draw=draw)
+
+        rescaled = lambda p: self.input_scale(p, normalise)[0] != 1.0  # noqa: E731
+        return recrop(self.pipeline.search, run_pass, rescaled, pts, nrm, num_input, normalise=normalise)
 
     def _pass(self, pts, nrm, units, roll, num_input: int, rescale: bool, normalise=None, memo=None, draw: int = 0) -> Pass:
         """One pass on a prepared cloud ``pts`` ``(P, 3)`` float32 (camera frame, metres, turned by ``roll``) standing
