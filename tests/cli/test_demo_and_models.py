@@ -49,11 +49,10 @@ def test_models_lists_the_shipped_models_with_figures(capsys):
     for name in CATEGORY_NAMES:
         assert re.search(rf"^{name}: \d part", out, re.M), name
     assert out.count("test split (") == len(CATEGORY_NAMES)
-    # A fine-tuned model lists its stages, and the models packaged with the refinement on say so.
+    # A fine-tuned model lists its training stages, and every model the length of its pipeline.
     eyeglasses = re.search(r"^eyeglasses: .*$", out, re.M).group(0)
     assert re.search(r"trained \d+( \+ \d+)+ steps \(\d fine-tuning stages?\)", eyeglasses)
-    assert "kinematic refinement on by default" in eyeglasses
-    assert "kinematic refinement" not in re.search(r"^laptop: .*$", out, re.M).group(0)
+    assert re.search(r"\d+ stages \(ucope pipeline --model eyeglasses\)", eyeglasses)
 
 
 def test_demo_prints_errors_and_writes_pictures(tmp_path, capsys):

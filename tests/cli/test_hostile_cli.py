@@ -300,14 +300,17 @@ def test_options_the_others_would_ignore_are_refused(files, tmp_path, capsys, ex
     refused(capsys, argv + [a.replace("{d}", str(files)) for a in extra], *needles)
 
 
-def test_box_with_instances_and_eval_options_of_another_format(files, tmp_path, capsys):
+def test_a_bad_rgb_with_instances_and_eval_options_of_another_format(files, tmp_path, capsys):
     frame = ["--depth", files / "depth.png", "--mask", files / "mask.png", "--intrinsics", files / "K.json"]
-    refused(capsys, ["predict", "--instances", "1=mug", *frame, "--box", 0, 0, 9, 9, "--out", tmp_path / "f.json"], "--box")
     bad_rgb = ["predict", "--instances", "1=mug", *frame, "--rgb", files / "K.json", "--out", tmp_path / "f.json"]
     refused(capsys, bad_rgb, "K.json", "not a readable image")
     assert not (tmp_path / "f.json").exists()  # said before the frame's JSON is written
     ev = ["eval", "--model", "mug", files / "data", "--out", tmp_path / "e.json"]
-    refused(capsys, [*ev, "--format", "bop", "--intrinsics", files / "K.json"], "--intrinsics is for --format nocs only")
+    refused(
+        capsys,
+        [*ev, "--format", "bop", "--intrinsics", files / "K.json"],
+        "--intrinsics is an option of --format nocs and artimage",
+    )
     refused(capsys, [*ev, "--models-info", files / "K.json"], "--models-info is for --format bop only")
     refused(capsys, [*ev, "--format", "nocs", "--bop-obj-id", "3"], "--bop-obj-id is for --format bop only")
     refused(capsys, [*ev, "--data", files / "data"], "give the data set once")

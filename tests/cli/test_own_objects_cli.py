@@ -133,4 +133,4 @@ def test_train_without_val_data_and_without_the_sources_leaves_no_run_folder(tmp
     assert "two_link.urdf" in err and not run.exists() and not run.parent.exists()
     (tmp_path / "afile").write_text("x")
     assert main([*args[:5], "--out", str(tmp_path / "afile"), *args[7:], "--device", "cpu", "--quiet"]) == 2
-    assert "is a file, not a folder" in capsys.readouterr().err
+    assert "it exists and is not a folder" in capsys.readouterr().err

@@ -493,7 +493,7 @@ def _check_predict_options(args: argparse.Namespace) -> None:
     if len(sources) > 1:
         raise UcopeError(f"give one input: {' and '.join(sources)} cannot be combined (all but one would be ignored)")
     if args.instances:
-        for option, value in (("--data", args.data), ("--mask-label", args.mask_label)):
+        for option, value in (("--data", args.data),):
             if value is not None:
                 raise UcopeError(
                     f"{option} does not go with --instances (the instance mask --mask, or the cloud's per-point ids, select "

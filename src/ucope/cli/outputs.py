@@ -220,8 +220,7 @@ def add_eval_format_options(p: argparse.ArgumentParser) -> None:
 
 def check_eval_format_options(args: argparse.Namespace) -> None:
     """Refuse the ``eval`` options that the chosen ``--format`` would ignore; fill in ``--bop-obj-id``'s default."""
-    only = {
-        "--intrinsics": ("nocs", args.intrinsics),
+    only = {  # --intrinsics (nocs, artimage) is checked with the other formats' options in eval_samples
         "--models-info": ("bop", args.models_info),
         "--bop-obj-id": ("bop", args.bop_obj_id),
     }
