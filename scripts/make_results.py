@@ -50,6 +50,21 @@ def outcomes(rep: dict) -> tuple[np.ndarray, list[str], list[int]]:
     )
 
 
+def slim(path: Path) -> None:
+    """Rewrite a report compactly for the repository: its per-view records (``views``, built from ``samples`` for a
+    report without them) and summaries kept, the full ``samples`` left out."""
+    from ucope.eval.evaluate import view_record
+
+    rep = json.loads(path.read_text())
+    if not rep.get("views") and rep.get("samples"):
+        rep["views"] = [
+            view_record(x.get("index", i), x.get("instance_id", str(i)), x, view_success(x["parts"]))
+            for i, x in enumerate(rep["samples"])
+        ]
+    rep.pop("samples", None)
+    path.write_text(json.dumps(rep, sort_keys=True, separators=(",", ":")) + "\n")
+
+
 def success_cell(rep: dict | None) -> str:
     if rep is None:
         return "-"
@@ -190,6 +205,27 @@ def data_line(reports: Path) -> str:
     )
 
 
+README = ROOT / "README.md"
+BEGIN, END = "<!-- models:begin (written by scripts/make_results.py) -->", "<!-- models:end -->"
+
+
+def readme_table(reports: Path) -> str:
+    """The README's table of models: one row per model with a test report."""
+    rows = ["| model | parts | test success | ood success |", "|---|---|---|---|"]
+    for m in (*MODELS, *OWN):
+        test = load(reports / f"{m}_test.json")
+        if test is not None:
+            rows.append(
+                f"| {m} | {len(test['part_names'])} | {success_cell(test)} | {success_cell(load(reports / f'{m}_ood.json'))} |"
+            )
+    return "\n".join(rows)
+
+
+def with_readme_table(text: str, reports: Path) -> str:
+    a, b = text.index(BEGIN) + len(BEGIN), text.index(END)
+    return text[:a] + "\n" + readme_table(reports) + "\n" + text[b:]
+
+
 def page(reports: Path) -> str:
     lines = [
         "# Results",
@@ -256,15 +292,21 @@ def main() -> int:
     ap.add_argument("--reports", type=Path, default=REPORTS)
     ap.add_argument("--out", type=Path, default=PAGE)
     ap.add_argument("--check", action="store_true", help="exit 1 if --out is not what this would write")
+    ap.add_argument("--slim", nargs="+", type=Path, default=None, help="rewrite these reports compactly first (see slim)")
     args = ap.parse_args()
+    for path in args.slim or []:
+        slim(path)
     text = page(args.reports)
+    readme = with_readme_table(README.read_text(), args.reports)
     if args.check:
-        if not args.out.is_file() or args.out.read_text() != text:
-            print(f"{args.out} is out of date: run python scripts/make_results.py", file=sys.stderr)
+        if not args.out.is_file() or args.out.read_text() != text or README.read_text() != readme:
+            print(f"{args.out} or {README} is out of date: run python scripts/make_results.py", file=sys.stderr)
             return 1
         return 0
     args.out.write_text(text)
-    print(f"wrote {args.out} ({len(text.encode())} bytes)")
+    if args.out == PAGE:
+        README.write_text(readme)
+    print(f"wrote {args.out} ({len(text.encode())} bytes) and the README's table of models")
     return 0
 
 
