@@ -195,7 +195,15 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=VAL_SEED)
     ap.add_argument("--report", default=None, help="report JSON (default docs/reports/MODEL_val_pipeline.json)")
     ap.add_argument("--no-write", action="store_true", help="measure and report only; leave the model card alone")
+    ap.add_argument("--apply", type=Path, default=None, help="write the pipeline a report chose into the card (no measuring)")
     args = ap.parse_args()
+    if args.apply is not None:
+        net, meta = load_model(find_model(args.model))
+        rep = json.loads(args.apply.read_text())
+        chosen = Pipeline.from_info({**meta.get("info", {}), "pipeline": rep["chosen"]}, net.cfg.priors, net.cfg.head)
+        write_card(find_model(args.model), chosen)
+        print(f"{args.model}: {list(chosen.stages)} from {args.apply}")
+        return 0
     chosen, record = choose(args.model, args.num, args.seed)
     path = find_model(args.model)
     name = Path(args.model).stem if not Path(args.model).is_dir() else Path(args.model).name

@@ -21,7 +21,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from golden_support import GOLDEN_DIR, golden_views, record  # noqa: E402
+import numpy as np  # noqa: E402
+from golden_support import GOLDEN_DIR, differences, flatten, golden_views, load, predict_views  # noqa: E402
 
 from ucope.model.checkpoint import list_pretrained  # noqa: E402
 
@@ -38,7 +39,16 @@ def main() -> int:
     for name in models:
         t0 = time.perf_counter()
         views = golden_views(name, args.num)
-        path = record(name, views, out / f"{name}.npz")
+        path = out / f"{name}.npz"
+        arrays = flatten(predict_views(name, views))
+        if path.is_file():  # say which views change, against the file being replaced
+            old = load(name) if out == GOLDEN_DIR else dict(np.load(path))
+            rows = np.arange(len(views))
+            diff = differences(old, arrays, rows) if len(old["split"]) == len(views) else ["(another number of views)"]
+            print(f"{name}: {len(diff)} of {len(views)} views change", *diff, sep="\n  ", flush=True)
+        np.savez_compressed(
+            path, split=np.array([v[0] for v in views]), index=np.array([v[1] for v in views], np.int64), **arrays
+        )
         print(f"{name}: {len(views)} views -> {path} ({time.perf_counter() - t0:.0f} s)", flush=True)
     return 0
 

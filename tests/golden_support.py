@@ -66,15 +66,6 @@ def predict_views(model: str, views, **load_kw):
     return [est.predict(s["points"], s["normals"]) for _, _, s in views]
 
 
-def record(model: str, views, path: Path) -> Path:
-    """Run the shipped ``model`` on ``views`` and write its golden file ``path``."""
-    arrays = flatten(predict_views(model, views))
-    np.savez_compressed(
-        path, split=np.array([v[0] for v in views]), index=np.array([v[1] for v in views], np.int64), **arrays
-    )
-    return path
-
-
 def load(model: str) -> dict[str, np.ndarray]:
     with np.load(GOLDEN_DIR / f"{model}.npz") as z:
         return {k: z[k] for k in z.files}
