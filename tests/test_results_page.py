@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 REPORTS = ROOT / "docs" / "reports"
@@ -54,3 +55,21 @@ def test_the_interval_resamples_objects():
     assert lo < 0.25 and hi > 0.75
     lo1, hi1 = object_interval(ok, [f"v{i}" for i in range(100)])
     assert hi1 - lo1 < 0.25
+
+
+@pytest.mark.parametrize("model", ["mug", "laptop"])
+def test_a_report_reproduces_its_first_views(model):
+    """The per-view records of a committed report are what the shipped model gives on the same generated views
+    today (the data set is re-made from its settings: sample i depends only on the category, split, seed and i)."""
+    from ucope.data.generate import GenerateConfig, make_sample
+    from ucope.estimation import Estimator
+    from ucope.eval.evaluate import sample_errors, view_record, view_success
+
+    rep = json.loads((REPORTS / f"{model}_test.json").read_text())
+    data = rep["data"]
+    cfg = GenerateConfig(category=model, split="test", seed=data["seed"], num=data["num_samples"], views_per_instance=1)
+    est = Estimator.load(model)
+    for v in rep["views"][:2]:
+        s = make_sample(cfg, v["index"])
+        e = sample_errors(est.predict_sample(s), s)
+        assert view_record(v["index"], v["object"], e, view_success(e["parts"])) == v

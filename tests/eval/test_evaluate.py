@@ -10,6 +10,7 @@ from tests_support import measured_priors
 
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.errors import InputError
+from ucope.estimation.pipeline import Pipeline
 from ucope.estimation.result import JointEstimate, PartEstimate, PoseResult
 from ucope.eval.evaluate import (
     EVAL_FORMAT,
@@ -36,7 +37,8 @@ class Oracle:
 
     def __init__(self, category, angle_deg=0.0, shift_m=0.0, axis="z"):
         self.cfg = ModelConfig.default(measured_priors(category, samples(category)), size="full")
-        self.name, self.num_pairs, self.awareness, self.refine, self.seed = "oracle", 100, True, False, 0
+        self.name, self.seed = "oracle", 0
+        self.pipeline = Pipeline(("vote_parts", "score"))
         self.R = Rotation.from_euler(axis, angle_deg, degrees=True).as_matrix()
         self.shift = np.array([shift_m, 0.0, 0.0])
 
@@ -259,19 +261,22 @@ def test_cli_eval_writes_a_report_and_prints_the_table(tmp_path, capsys, head):
     out = capsys.readouterr().out
     assert "rotation error (deg)" in out and "joint axis error (deg)" in out
     rep = json.loads((tmp_path / "r.json").read_text())
-    assert rep["head"] == head and rep["data"]["num_samples"] == 2 and rep["settings"]["num_pairs"] == 500
-    assert rep["command"].startswith("ucope eval --model") and len(rep["samples"]) == 2
-    assert rep["settings"]["score_filter"] and rep["settings"]["segment_pairs"] and rep["settings"]["vote_caps"]
+    pipeline = rep["settings"]["pipeline"]
+    assert rep["head"] == head and rep["data"]["num_samples"] == 2 and pipeline["params"]["vote_parts.num_pairs"] == 500
+    assert rep["command"].startswith("ucope eval --model") and len(rep["samples"]) == 2 and len(rep["views"]) == 2
+    assert pipeline["stages"][0] == ("vote_parts" if head == "voting" else "regress_parts")
     assert (
         main(["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.json")])
         == 2
     )
-    if head == "voting":  # the Table 3 switches are recorded, one by one
+    if head == "voting":  # the Table 3 settings are recorded, one by one
         argv = ["eval", "--model", str(tmp_path / "run"), "--data", str(tmp_path / "data"), "--num", "1", "--pairs", "500"]
-        argv += ["--quiet", "--out", str(tmp_path / "a.json"), "--no-vote-caps", "--no-score-filter", "--pairs-from-cloud"]
+        argv += ["--quiet", "--out", str(tmp_path / "a.json"), "--set", "vote_parts.score_filter=false"]
+        argv += ["vote_parts.segment_pairs=false", "vote_parts.options.max_axis_pairs=2147483647"]
         assert main(argv) == 0
-        st = json.loads((tmp_path / "a.json").read_text())["settings"]
-        assert not st["vote_caps"] and not st["score_filter"] and not st["segment_pairs"] and st["awareness"]
+        params = json.loads((tmp_path / "a.json").read_text())["settings"]["pipeline"]["params"]
+        assert params["vote_parts.score_filter"] is False and params["vote_parts.segment_pairs"] is False
+        assert params["vote_parts.options.max_axis_pairs"] == 2147483647
 
 
 def test_view_bins_follow_the_camera_yaw_about_the_object():

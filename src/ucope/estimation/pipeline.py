@@ -17,7 +17,7 @@ from typing import Any
 from ..errors import InputError
 from ..priors import CategoryPriors
 from ..stages import REGISTRY, get_stage, stage_params
-from ..stages.base import replace_field
+from ..stages.base import coerced, replace_field
 from ..stages.confidence import Calibration
 from ..vocab import JointType
 from .search import SearchPolicy
@@ -105,7 +105,7 @@ class Pipeline:
             if group == "search":
                 search = replace_field(search, path.split("."), value, f"override {key}")
             else:
-                params[key] = value
+                params[key] = coerced(key, value)
         return dataclasses.replace(self, stages=names, params=params, search=search)
 
 

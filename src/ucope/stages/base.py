@@ -40,6 +40,7 @@ __all__ = [
     "get_stage",
     "stage_params",
     "parse_overrides",
+    "coerced",
     "replace_field",
     "run",
 ]
@@ -310,6 +311,18 @@ def replace_field(params: Any, path: Sequence[str], value: Any, where: str) -> A
         return dataclasses.replace(params, **{path[0]: new})
     except InputError as e:
         raise InputError(f"{where}: {e}") from None
+
+
+def coerced(key: str, value: Any) -> Any:
+    """The override ``{key: value}`` (``"stage.param[.sub]"``) with ``value`` as the parameter's own type (a string
+    from the command line becomes a number, a bool or null); an InputError as :func:`stage_params` raises."""
+    name, _, path = str(key).partition(".")
+    if not path:
+        raise InputError(f"override {key!r}: write STAGE.PARAM")
+    obj = replace_field(get_stage(name).params(), path.split("."), value, f"override {key}")
+    for part in path.split("."):
+        obj = getattr(obj, part)
+    return list(obj) if isinstance(obj, tuple) else obj
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, str]:
