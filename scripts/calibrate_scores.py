@@ -32,12 +32,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
 
 from ucope.data.augment import sample_context  # noqa: E402
 from ucope.data.corrupt import KINDS, corrupt  # noqa: E402
-from ucope.data.generate import GenerateConfig, make_sample  # noqa: E402
+from ucope.data.generate import config_of_model, make_sample  # noqa: E402
 from ucope.estimation import Estimator  # noqa: E402
 from ucope.eval.evaluate import mug_handle_kept  # noqa: E402
 from ucope.eval.metrics import part_errors  # noqa: E402
 from ucope.fileio import atomic_write_json, read_json  # noqa: E402
-from ucope.model.checkpoint import find_model  # noqa: E402
+from ucope.model.checkpoint import find_model, load_model  # noqa: E402
 from ucope.stages.confidence import SUCCESS_ROT_DEG, SUCCESS_TRANS_REL, Calibration, auroc  # noqa: E402
 
 NEEDS_BACKGROUND = ("floor", "bleed")
@@ -76,7 +76,8 @@ def calibrate(model: str, num: int, seed: int, pairs: int) -> dict:
     loaded = Estimator.load(model, overrides={"vote_parts.num_pairs": pairs})
     est = Estimator(loaded.model, dataclasses.replace(loaded.pipeline, calibration=None))  # raw scores: no search
     cat = est.category
-    cfg = GenerateConfig(category=cat, split="val", num=num, seed=seed, views_per_instance=1)
+    info = load_model(find_model(model))[1].get("info")
+    cfg = config_of_model(cat, info, split="val", num=num, seed=seed, views_per_instance=1)
     feats, succ, part_idx, obj_rows = [], [], [], []
     t0 = time.perf_counter()
     for i in range(num):

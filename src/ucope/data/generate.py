@@ -29,7 +29,7 @@ from .sample import background_fields, sample_from_view
 from .scenes import add_adjacent_distractor
 from .shards import FORMAT_VERSION, shard_name, write_shard
 
-__all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng", "category_of"]
+__all__ = ["GenerateConfig", "generate_dataset", "make_sample", "sample_rng", "category_of", "config_of_model"]
 
 MIN_OBJECT_PIXELS = 64
 """A view must show at least this many object pixels; otherwise another view is drawn."""
@@ -182,6 +182,25 @@ def category_of(cfg: GenerateConfig):
 
             register_spec(cfg.spec, quiet=True)
     return get_category(cfg.category)
+
+
+def config_of_model(category: str, info: dict | None, **kwargs) -> GenerateConfig:
+    """A :class:`GenerateConfig` (``kwargs``: its other fields) of the category a model was trained on: for a category
+    of your own, the spec stored in its training data set's ``meta.json`` (``info["training_data"]["path"]`` of the
+    model card; the files it names must be readable here). Raises :class:`DataError` when that data set is gone."""
+    from ..objects.categories import CATEGORY_NAMES
+
+    spec = None
+    if category not in CATEGORY_NAMES:
+        path = ((info or {}).get("training_data") or {}).get("path")
+        meta = Path(path or "") / "meta.json"
+        if not path or not meta.is_file():
+            raise DataError(
+                f"{category!r} is a category of your own: its spec comes from the model's training data ({path}), "
+                "which is not here"
+            )
+        spec = read_json(meta).get("spec")
+    return GenerateConfig(category=category, spec=spec, **kwargs)
 
 
 def sample_rng(category: str, split: str, seed: int, index: int) -> np.random.Generator:

@@ -84,10 +84,12 @@ class Pipeline:
         return cls(stages, dict(doc.get("params") or {}), search, cal, str(doc.get("chosen_on", "")))
 
     def to_dict(self) -> dict:
-        """The card's ``pipeline`` entry (the calibration is stored beside it)."""
+        """The card's ``pipeline`` entry (the calibration is stored beside it; parameters of stages not in the list
+        are left out)."""
         default = SearchPolicy().to_dict()
         search = {k: v for k, v in self.search.to_dict().items() if v != default[k]}
-        return {"stages": list(self.stages), "params": dict(self.params), "search": search, "chosen_on": self.chosen_on}
+        params = {k: v for k, v in self.params.items() if k.partition(".")[0] in self.stages}
+        return {"stages": list(self.stages), "params": params, "search": search, "chosen_on": self.chosen_on}
 
     def changed(
         self, stages: Iterable[str] | None = None, drop: Iterable[str] = (), overrides: Mapping[str, Any] | None = None
