@@ -23,9 +23,9 @@
 # are kept, a data set or training cut short continues where it stopped (`ucope generate` resumes by
 # itself; a run folder with a checkpoint is trained on with --resume).
 #
-# The recipes below are the ones the shipped robot_arm and microwave models were made with (docs/own_objects.md
-# has their times); `scripts/package_models.py --runs WORK/runs --reports WORK/reports --check-data WORK/data`
-# then copies a run into the package.
+# The recipes below are the ones run for robot_arm and microwave (docs/own_objects.md has their times and why the
+# models they gave are not shipped); `scripts/package_models.py --runs WORK/runs --reports WORK/reports
+# --check-data WORK/data` copies a run into the package.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
