@@ -469,9 +469,7 @@ def evaluate(
         "iou_method": IOU_METHOD,
         "ucope_version": __version__,
         "hardware": {"platform": platform.platform(), "cpu_count": os.cpu_count(), "torch_threads": _threads()},
-        "views": [
-            view_record(int(samples[i].get("index", i)), instances[i], records[i], bool(ok[i])) for i in range(n)
-        ],
+        "views": [view_record(int(samples[i].get("index", i)), instances[i], records[i], bool(ok[i])) for i in range(n)],
         "samples": records if keep_samples else None,
     }
     return report
