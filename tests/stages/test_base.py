@@ -186,6 +186,25 @@ def test_a_stage_that_moves_a_part_records_how_far_in_metres_of_the_input():
     assert set(d) == {"name", "ms", "changed"} and d["name"] == "joint_states"
 
 
+def test_a_pose_recomputed_with_round_off_counts_as_unchanged():
+    """A stage that rebuilds the poses it was given (round-off in the last bits) records no change."""
+    from ucope.stages.base import _changes, _snapshot
+
+    pri = _two_parts("revolute", (0.0, 1.0), (1, 0, 0))
+    state = _state(pri)
+    R = rotation_about_axis(np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0), 0.7)
+    state.cam_from_part = np.tile(np.eye(4), (2, 1, 1))
+    state.cam_from_part[:, :3, :3] = R
+    state.cam_from_part[:, :3, 3] = [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]]
+    state.size_m = np.array(pri.mean_size_m, np.float64)
+    before = _snapshot(state)
+    state.cam_from_part = state.cam_from_part @ np.linalg.inv(state.cam_from_part) @ state.cam_from_part
+    state.cam_from_part[:, :3, 3] += 1e-12
+    assert _changes(before, state) == {}
+    state.cam_from_part[1, :3, 3] += 1e-3
+    assert _changes(before, state)["parts"] == ["drawer"]
+
+
 def test_a_turn_is_recorded_in_degrees_and_a_first_pose_names_every_part():
     pri = _two_parts("revolute", (0.0, 1.0), (1, 0, 0))
     state = _state(pri)

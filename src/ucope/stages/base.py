@@ -375,6 +375,10 @@ def _snapshot(state: PoseState) -> tuple:
     return _copy(state.cam_from_part), _copy(state.size_m), _copy(state.joint_state)
 
 
+_MOVED_DEG, _MOVED_M = 1e-4, 1e-7
+"""Below these a part counts as unmoved in a stage's record (degrees; metres of the input)."""
+
+
 def _changes(before: tuple, state: PoseState) -> dict:
     T0, S0, q0 = before
     T1, S1, q1 = _snapshot(state)
@@ -385,7 +389,7 @@ def _changes(before: tuple, state: PoseState) -> dict:
         rot = np.array([rotation_angle_deg(a[:3, :3], b[:3, :3]) for a, b in zip(T0, T1, strict=True)])  # K parts
         trans = np.linalg.norm(T1[:, :3, 3] - T0[:, :3, 3], axis=1) / state.scale
         size = np.abs(S1 - S0).max(axis=1) / state.scale if S0 is not None and S1 is not None else np.zeros(len(T1))
-        moved = (rot > 1e-6) | (trans > 1e-9) | (size > 1e-9)
+        moved = (rot > _MOVED_DEG) | (trans > _MOVED_M) | (size > _MOVED_M)  # not float round-off
         if moved.any():
             out.update(
                 parts=[state.part_name(k) for k in np.flatnonzero(moved)],
