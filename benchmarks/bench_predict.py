@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import statistics
 from pathlib import Path
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+import ucope
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.estimation import FAST, Estimator
 from ucope.fileio import atomic_write_text
@@ -79,10 +81,11 @@ def main() -> None:
         args.out,
         json.dumps(
             {
+                "ucope_version": ucope.__version__,
                 "threads": args.threads,
                 "torch": torch.__version__,
                 "platform": platform.platform(),
-                "cpu_count": __import__("os").cpu_count(),
+                "cpu_count": os.cpu_count(),
                 "target_median_ms": 100.0,
                 "target_p95_ms": 250.0,
                 "results": results,
