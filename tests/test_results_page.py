@@ -58,10 +58,14 @@ def test_the_interval_resamples_objects():
 
 
 @pytest.mark.parametrize("model", ["mug", "laptop"])
-def test_a_report_reproduces_its_first_views(model):
+def test_a_report_reproduces_its_first_views(model, tmp_path):
     """The per-view records of a committed report are what the shipped model gives on the same generated views
-    today (the data set is re-made from its settings: sample i depends only on the category, split, seed and i)."""
+    today: the data set is re-made from its settings (sample i depends only on the category, split, seed and i) and
+    stored as ``ucope generate`` stores it (normals in float16); the report's number of torch threads."""
+    import torch
+
     from ucope.data.generate import GenerateConfig, make_sample
+    from ucope.data.shards import read_shard, write_shard
     from ucope.estimation import Estimator
     from ucope.eval.evaluate import sample_errors, view_record, view_success
 
@@ -69,7 +73,13 @@ def test_a_report_reproduces_its_first_views(model):
     data = rep["data"]
     cfg = GenerateConfig(category=model, split="test", seed=data["seed"], num=data["num_samples"], views_per_instance=1)
     est = Estimator.load(model)
-    for v in rep["views"][:2]:
-        s = make_sample(cfg, v["index"])
-        e = sample_errors(est.predict_sample(s), s)
-        assert view_record(v["index"], v["object"], e, view_success(e["parts"])) == v
+    threads = torch.get_num_threads()
+    torch.set_num_threads(rep["hardware"]["torch_threads"])
+    try:
+        for v in rep["views"][:2]:
+            write_shard(tmp_path / "shard.npz", [make_sample(cfg, v["index"])])
+            (s,) = read_shard(tmp_path / "shard.npz")
+            e = sample_errors(est.predict_sample(s), s)
+            assert view_record(v["index"], v["object"], e, view_success(e["parts"])) == v
+    finally:
+        torch.set_num_threads(threads)

@@ -15,7 +15,7 @@ from ucope.eval.metrics import rotation_error_deg
 @pytest.fixture(scope="module")
 def mug():
     s = make_sample(GenerateConfig(category="mug", split="test", num=1, views_per_instance=1, seed=2), 0)
-    return s, Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000})
+    return s, Estimator.load("mug", overrides={"clean_cloud.plane": False, "vote_parts.num_pairs": 4000})
 
 
 def _floor_under(s, rng, n=1500, reach=(0.06, 0.25)):
@@ -33,9 +33,9 @@ def _floor_under(s, rng, n=1500, reach=(0.06, 0.25)):
 
 def test_a_clean_cloud_in_the_training_sizes_takes_one_pass(mug):
     s, est = mug
-    one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
-        s["points"]
-    )
+    one = Estimator.load(
+        "mug", overrides={"clean_cloud.plane": False, "vote_parts.num_pairs": 4000, "search.recrop": False}
+    ).predict(s["points"])
     assert np.mean(one.part_labels < 0) < SearchPolicy().recrop_min_fraction  # the precondition: nothing to leave out
     two = est.predict(s["points"])
     assert not any("estimated again" in w for w in two.warnings)
@@ -63,9 +63,9 @@ def test_a_floor_left_in_the_mask_is_left_out_and_the_pose_estimated_again(mug):
     np.testing.assert_array_equal(again.parts[0].cam_from_part, T)
     np.testing.assert_array_equal(again.part_labels, r.part_labels[perm])
     # one pass: no such warning, and every point labelled by the one estimate
-    one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
-        cloud
-    )
+    one = Estimator.load(
+        "mug", overrides={"clean_cloud.plane": False, "vote_parts.num_pairs": 4000, "search.recrop": False}
+    ).predict(cloud)
     assert not any("estimated again" in w for w in one.warnings)
 
 
@@ -85,22 +85,23 @@ def test_the_second_pass_decides_the_rescaling_on_the_object_points():
 
 
 def test_compact_tells_a_lone_object_from_one_with_a_far_floor(mug):
-    from ucope.estimation.estimator import compact
+    from ucope.estimation.search import SearchPolicy, compact
 
     s, _ = mug
-    assert compact(s["points"])
-    assert compact(scale_sample(s, 2.0)["points"])  # a size does not change it
+    factor = SearchPolicy().compact_factor
+    assert compact(s["points"], factor)
+    assert compact(scale_sample(s, 2.0)["points"], factor)  # a size does not change it
     far = _floor_under(s, np.random.default_rng(0), n=800, reach=(0.3, 1.5))  # ~25 % of the points
-    assert not compact(np.concatenate([s["points"], far]))
+    assert not compact(np.concatenate([s["points"], far]), factor)
 
 
 def test_a_compact_cloud_far_above_the_training_sizes_is_rescaled_in_the_first_pass(mug):
     s, est = mug
     big = scale_sample(s, 3.0)
     assert est.input_scale(big["points"])[0] < 1.0  # the precondition: too large for the model
-    one = Estimator.load("mug", drop=["remove_plane"], overrides={"vote_parts.num_pairs": 4000, "search.recrop": False}).predict(
-        big["points"]
-    )
+    one = Estimator.load(
+        "mug", overrides={"clean_cloud.plane": False, "vote_parts.num_pairs": 4000, "search.recrop": False}
+    ).predict(big["points"])
     two = est.predict(big["points"])
     assert any("was scaled by" in w for w in one.warnings) and any("was scaled by" in w for w in two.warnings)
     assert rotation_error_deg(two.parts[0].cam_from_part[:3, :3], big["cam_from_part"][0][:3, :3]) < 15.0
