@@ -22,6 +22,7 @@ per-view outcomes, so the choice can be recomputed (``--rechoose REPORT``); the 
 which views chose it.
 
     python scripts/choose_pipeline.py --model drawer --rechoose docs/reports/drawer_val_pipeline.json
+    python scripts/choose_pipeline.py --model drawer --fast docs/reports/drawer_val_pipeline.json   # what --fast costs
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from ucope.data.augment import AugmentConfig, augment_sample  # noqa: E402
 from ucope.data.generate import config_of_model, make_sample  # noqa: E402
-from ucope.estimation import Estimator  # noqa: E402
+from ucope.estimation import FAST, Estimator  # noqa: E402
 from ucope.estimation.pipeline import Pipeline  # noqa: E402
 from ucope.eval.evaluate import sample_errors, view_success  # noqa: E402
 from ucope.fileio import atomic_write_json  # noqa: E402
@@ -199,6 +200,25 @@ def choose(model: str, num: int, seed: int, record: dict | None = None) -> tuple
     return chosen, record
 
 
+def measure_fast(model: str, report: Path) -> dict:
+    """The model card's pipeline and its fast setting (:data:`ucope.estimation.FAST`: one estimate of one pass) on a
+    choice report's validation views, one after the other in one process: what ``--fast`` costs in successes and what
+    it saves in time. Stored in the report as ``fast``; never taken into a card."""
+    rep = json.loads(report.read_text())
+    net, meta = load_model(find_model(model))
+    card = Pipeline.from_info(meta.get("info"), net.cfg.priors, net.cfg.head)
+    views = val_views(net.cfg.category, rep["num"], rep["seed"], meta.get("info"))
+    ok_d, ms_d = measure(Estimator(net, card), views)
+    ok_f, ms_f = measure(Estimator(net, card.changed(overrides=FAST)), views)
+    rep["fast"] = {
+        "default": {"success": int(ok_d.sum()), "ms": round(ms_d, 1), "views": ok_d.astype(int).tolist()},
+        "fast": {"success": int(ok_f.sum()), "ms": round(ms_f, 1), "views": ok_f.astype(int).tolist()},
+    }
+    atomic_write_json(report, rep)
+    print(f"{model}: default {ok_d.sum()}/{len(views)} ({ms_d:.0f} ms), fast {ok_f.sum()}/{len(views)} ({ms_f:.0f} ms)")
+    return rep["fast"]
+
+
 def write_card(path: Path, pipeline: Pipeline) -> None:
     doc = json.loads(path.read_text())
     doc.setdefault("info", {})["pipeline"] = pipeline.to_dict()
@@ -219,7 +239,11 @@ def main() -> int:
     ap.add_argument(
         "--rechoose", type=Path, default=None, help="decide again from a report's candidates (measuring a combination only)"
     )
+    ap.add_argument("--fast", type=Path, default=None, help="measure the card's pipeline and --fast on a report's views")
     args = ap.parse_args()
+    if args.fast is not None:
+        measure_fast(args.model, args.fast)
+        return 0
     if args.apply is not None:
         net, meta = load_model(find_model(args.model))
         rep = json.loads(args.apply.read_text())

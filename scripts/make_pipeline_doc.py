@@ -118,7 +118,28 @@ def page() -> str:
         "part score is highest stands; `seen`: the lowest over the parts given at least one point).",
         "",
     ]
-    return "\n".join(lines)
+    return "\n".join(lines + _fast(choices))
+
+
+def _fast(choices: dict[str, dict]) -> list[str]:
+    """The fast setting against each card's pipeline on its validation views (``choose_pipeline.py --fast``)."""
+    rows = [(m, c["fast"], c["num"]) for m, c in choices.items() if "fast" in c]
+    if not rows:
+        return []
+    out = [
+        "## The fast setting",
+        "",
+        "`--fast` (`ucope.estimation.FAST`) makes one estimate of one pass whatever its score: no second pass, no",
+        "other sizes, no restarts. Each model's pipeline and its fast setting on the same validation views, measured",
+        "one after the other in one process (one torch thread; mean time per view):",
+        "",
+        "| model | views | successes | fast: successes | time (ms) | fast: time (ms) | faster |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for m, f, n in rows:
+        d, q = f["default"], f["fast"]
+        out.append(f"| {m} | {n} | {d['success']} | {q['success']} | {d['ms']:.0f} | {q['ms']:.0f} | {d['ms'] / q['ms']:.1f}x |")
+    return out + [""]
 
 
 def main() -> int:
