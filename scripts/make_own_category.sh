@@ -23,8 +23,8 @@
 # are kept, a data set or training cut short continues where it stopped (`ucope generate` resumes by
 # itself; a run folder with a checkpoint is trained on with --resume).
 #
-# The recipes below are the ones run for robot_arm and microwave (docs/own_objects.md has their times and why the
-# models they gave are not shipped); `scripts/package_models.py --runs WORK/runs --reports WORK/reports
+# The recipes below are the ones run for robot_arm and microwave (docs/own_objects.md has their times and why the arm
+# model is not shipped); `scripts/package_models.py --runs WORK/runs --reports WORK/reports
 # --check-data WORK/data` copies a run into the package.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -78,7 +78,7 @@ gymnasium_robotics-1.4.2 gymnasium_robotics-1.4.2.dist-info/licenses/ gymnasium_
     HAS_OOD=0
     OOD_ARGS=""
     RECIPE="3000 3000 100 100 0"
-    CATEGORY_ARGS=""
+    CATEGORY_ARGS="--seg-weighting points --lambda-seg 1.0"
     ;;
   *)
     echo "unknown CATEGORY $CATEGORY; this script knows robot_arm and microwave" >&2

@@ -283,8 +283,9 @@ def page(reports: Path) -> str:
         lines += [
             "## Models of public model files",
             "",
-            "A 7-joint robot arm (Franka Panda and KUKA iiwa; the UFACTORY xArm 7 held out as ood) and a microwave",
-            "(docs/own_objects.md), per part and joint, medians over views.",
+            "Models trained on public model files ([own_objects.md](own_objects.md)), per part and joint, medians over",
+            "views. The microwave is one file: its test views are new sizes (x0.8-1.25), door angles and views of that",
+            "microwave, two views per drawn size and angle (an object in the interval).",
             "",
             *own,
         ]

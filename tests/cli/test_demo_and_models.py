@@ -17,7 +17,9 @@ from ucope.objects.categories import CATEGORY_NAMES
 
 
 def test_every_category_ships_a_small_model():
-    assert list_pretrained() == sorted(CATEGORY_NAMES)
+    """Every built-in category ships a model; the others shipped were trained on public model files
+    (docs/own_objects.md): the microwave."""
+    assert set(list_pretrained()) == set(CATEGORY_NAMES) | {"microwave"}
     total = sum(f.stat().st_size for f in pretrained_dir().iterdir())
     assert total < 40e6
     for name in list_pretrained():
@@ -46,9 +48,9 @@ def test_shipped_model_is_sane_on_fresh_unseen_instances(category):
 def test_models_lists_the_shipped_models_with_figures(capsys):
     assert main(["models"]) == 0
     out = capsys.readouterr().out
-    for name in CATEGORY_NAMES:
+    for name in list_pretrained():
         assert re.search(rf"^{name}: \d part", out, re.M), name
-    assert out.count("test split (") == len(CATEGORY_NAMES)
+    assert out.count("test split (") == len(list_pretrained())
     # A fine-tuned model lists its training stages, and every model the length of its pipeline.
     eyeglasses = re.search(r"^eyeglasses: .*$", out, re.M).group(0)
     assert re.search(r"trained \d+( \+ \d+)+ steps \(\d fine-tuning stages?\)", eyeglasses)

@@ -11,8 +11,12 @@ import pytest
 from golden_support import GOLDEN_DIR, differences, flatten, golden_views, load, predict_views
 
 from ucope.model.checkpoint import list_pretrained
+from ucope.objects.categories import CATEGORY_NAMES
 
-MODELS = [m for m in list_pretrained() if (GOLDEN_DIR / f"{m}.npz").is_file()]
+BUILT_IN = [m for m in list_pretrained() if m in CATEGORY_NAMES]
+"""Shipped models of built-in categories: their views are generated here. A model of public model files (the
+microwave) needs those files for its views (scripts/make_household.sh) and keeps no golden results."""
+MODELS = [m for m in BUILT_IN if (GOLDEN_DIR / f"{m}.npz").is_file()]
 
 
 def _check(model: str, per_split: int | None) -> None:
@@ -27,7 +31,7 @@ def _check(model: str, per_split: int | None) -> None:
 
 
 def test_every_shipped_model_has_golden_results():
-    assert MODELS == list_pretrained()
+    assert MODELS == BUILT_IN
 
 
 @pytest.mark.parametrize("model", MODELS)
