@@ -83,3 +83,25 @@ def test_a_report_reproduces_its_first_views(model, tmp_path):
             assert view_record(v["index"], v["object"], e, view_success(e["parts"])) == v
     finally:
         torch.set_num_threads(threads)
+
+
+def test_the_microwave_report_reproduces_its_first_views():
+    """The shipped microwave (a model of public model files, whose views need those files) on the first two views of
+    its test report, stored as ``ucope generate`` stored them (tests/golden/microwave_test_views.npz)."""
+    import torch
+
+    from ucope.data.shards import read_shard
+    from ucope.estimation import Estimator
+    from ucope.eval.evaluate import sample_errors, view_record, view_success
+
+    rep = json.loads((REPORTS / "microwave_test.json").read_text())
+    samples = read_shard(ROOT / "tests" / "golden" / "microwave_test_views.npz")
+    est = Estimator.load("microwave")
+    threads = torch.get_num_threads()
+    torch.set_num_threads(rep["hardware"]["torch_threads"])
+    try:
+        for v, s in zip(rep["views"][:2], samples, strict=True):
+            e = sample_errors(est.predict_sample(s), s)
+            assert view_record(v["index"], v["object"], e, view_success(e["parts"])) == v
+    finally:
+        torch.set_num_threads(threads)
