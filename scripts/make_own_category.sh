@@ -77,7 +77,7 @@ gymnasium_robotics-1.4.2 gymnasium_robotics-1.4.2.dist-info/licenses/ gymnasium_
     COPY="examples/own_objects/household/microwave.xml"
     HAS_OOD=0
     OOD_ARGS=""
-    RECIPE="3000 3000 100 100 0"
+    RECIPE="3000 6000 100 100 0"
     CATEGORY_ARGS="--seg-weighting points --lambda-seg 1.0"
     ;;
   *)
