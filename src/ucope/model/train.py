@@ -241,11 +241,15 @@ class _Dist:
         dist.all_gather_object(out, s)
         return [str(x) for x in out]
 
-    def close(self) -> None:
+    def close(self, finished: bool) -> None:
         """Destroy the process group. The DDP wrapper's reducer holds the group: it is collected first, so
-        the group's worker threads are joined here and not at interpreter exit (where gloo can abort)."""
+        the group's worker threads are joined here and not at interpreter exit (where gloo can abort). After a
+        ``finished`` run every rank meets at a barrier first, so that no rank tears its connections down while a peer
+        still uses them (after a failure a peer may be inside another collective: no barrier, no hang)."""
         if self.enabled and dist.is_initialized():
             gc.collect()
+            if finished:
+                dist.barrier()
             dist.destroy_process_group()
 
 
@@ -437,10 +441,13 @@ def train(tc: TrainConfig, on_step: Callable[[int], None] | None = None) -> dict
     if tc.device == "cuda" and not torch.cuda.is_available():
         raise InputError("--device cuda: no CUDA device is available")
     dd = _Dist("cuda" if use_cuda else "cpu")
+    finished = False
     try:
-        return _train(tc, dd, use_cuda, on_step)
+        card = _train(tc, dd, use_cuda, on_step)
+        finished = True
+        return card
     finally:
-        dd.close()
+        dd.close(finished)
 
 
 _FINE_TUNE_FIELDS = (
