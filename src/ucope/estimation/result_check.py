@@ -269,24 +269,22 @@ def _check_transform(v, where: str) -> None:
         raise _bad(where, f"the rotation is not orthonormal with determinant 1 (|R^T R - I| = {err:.2g}, det = {det:.6g})")
 
 
+def _error_entries(e: dict, field: str, n: int, allowed: set[str]):
+    """``(where, entry)`` of the non-null entries of ``e[field]``, a list of ``n`` objects with keys in ``allowed``."""
+    if not isinstance(e[field], list) or len(e[field]) != n:
+        raise _bad(f"errors.{field}", f"must be a list of {n} (one per {field[:-1]})")
+    for i, entry in enumerate(e[field]):
+        if entry is not None:
+            _keys(entry, allowed, set(), f"errors.{field}[{i}]")
+            yield f"errors.{field}[{i}]", entry
+
+
 def _check_errors(e, K: int, J: int) -> None:
     _keys(e, _ERROR_KEYS, {"parts", "joints"}, "errors")
-    if not isinstance(e["parts"], list) or len(e["parts"]) != K:
-        raise _bad("errors.parts", f"must be a list of {K} (one per part)")
-    for k, pe in enumerate(e["parts"]):
-        if pe is None:
-            continue
-        w = f"errors.parts[{k}]"
-        _keys(pe, _PART_ERROR_KEYS, set(), w)
+    for w, pe in _error_entries(e, "parts", K, _PART_ERROR_KEYS):
         for key, v in pe.items():
             _number(v, f"{w}.{key}", 0.0, 1.0 if key == "iou" else None)
-    if not isinstance(e["joints"], list) or len(e["joints"]) != J:
-        raise _bad("errors.joints", f"must be a list of {J} (one per joint)")
-    for i, je in enumerate(e["joints"]):
-        if je is None:
-            continue
-        w = f"errors.joints[{i}]"
-        _keys(je, _JOINT_ERROR_KEYS, set(), w)
+    for w, je in _error_entries(e, "joints", J, _JOINT_ERROR_KEYS):
         for key, v in je.items():
             if key == "joint_type":
                 if v not in ("revolute", "prismatic"):
