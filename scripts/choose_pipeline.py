@@ -204,6 +204,8 @@ def measure_fast(model: str, report: Path) -> dict:
     """The model card's pipeline and its fast setting (:data:`ucope.estimation.FAST`: one estimate of one pass) on a
     choice report's validation views, one after the other in one process: what ``--fast`` costs in successes and what
     it saves in time. Stored in the report as ``fast``; never taken into a card."""
+    if not report.is_file():
+        raise SystemExit(f"--fast {report}: no such choice report (run choose_pipeline.py --model {model} first)")
     rep = json.loads(report.read_text())
     net, meta = load_model(find_model(model))
     card = Pipeline.from_info(meta.get("info"), net.cfg.priors, net.cfg.head)
