@@ -134,3 +134,41 @@ def test_input_scale_names_a_bad_factor(eyeglasses):
         with pytest.raises(InputError, match="normalise"):
             est.input_scale(s["points"], normalise=bad)
     assert est.input_scale(s["points"], normalise=2.0)[0] == pytest.approx(2.0 * est.input_scale(s["points"], normalise=1.0)[0])
+
+
+def _fake_estimate(scores: dict):
+    """An ``estimate`` for :func:`ucope.estimation.search.search` whose object score per ``(normalise, draw)`` is
+    ``scores[(normalise, draw)]``; it logs the calls it gets."""
+    from ucope.estimation.result import PartEstimate
+    from ucope.estimation.search import Estimate, Pass
+
+    calls = []
+
+    def estimate(normalise, draw):
+        calls.append((normalise, draw))
+        part = PartEstimate(0, "body", np.eye(4), np.ones(3), scores[(normalise, draw)], "none", 10, 0.5)
+        ms = dict.fromkeys(("preprocess", "encoder", "pair_encoder", "voting", "total"), 1.0)
+        p = Pass([part], [], np.zeros(5, np.int64), None, None, [], [], ms)
+        return Estimate(p, p.labels, [None], dict(ms), [], normalise)
+
+    return estimate, calls
+
+
+def test_below_the_bar_every_size_is_tried_then_restarts_until_one_is_good_enough():
+    """The search order of :func:`ucope.estimation.search.search`, on estimates of known scores: every size once
+    the first estimate is below ``scale_below`` (the best one stands even where an earlier size passed the bar),
+    then restarts at the best one's size while the best is below ``restart_below``."""
+    from ucope.estimation.search import SearchPolicy, search
+
+    policy = SearchPolicy(scale_factors=(0.8, 1.0, 1.25), scale_below=0.9, restarts=2, restart_below=0.8)
+    estimate, calls = _fake_estimate({(None, 0): 0.5, (0.8, 0): 0.95, (1.0, 0): 0.99, (1.25, 0): 0.97})
+    best, timings, made = search(policy, estimate, calibrated=True)
+    assert calls == [(None, 0), (0.8, 0), (1.0, 0), (1.25, 0)] and made == 4 and best.normalise == 1.0
+    assert timings["total"] == 4.0
+    scores = {(None, 0): 0.5, (0.8, 0): 0.6, (1.0, 0): 0.7, (1.25, 0): 0.65, (1.0, 1): 0.85, (1.0, 2): 0.9}
+    estimate, calls = _fake_estimate(scores)
+    best, _, made = search(policy, estimate, calibrated=True)
+    assert calls == [(None, 0), (0.8, 0), (1.0, 0), (1.25, 0), (1.0, 1)] and best.final.score == 0.85
+    # A first estimate at or above the bar is the only one.
+    estimate, calls = _fake_estimate({(None, 0): 0.9})
+    assert search(policy, estimate, calibrated=True)[2] == 1 and calls == [(None, 0)]
