@@ -8,6 +8,13 @@ pipeline, on 2 CPU cores, 20,000 pairs, normals estimated by ucope. Measured on 
 category (one per object, seed 2027) in one process, each model with its default pipeline and with the fast
 setting (``ucope.estimation.FAST``: one estimate, one pass), so that their ratio compares within one run. Per stage:
 the median time over the views of the estimate that stands (``result.stages``).
+
+``--free-blas`` leaves numpy's and scipy's BLAS threads as they are during ``predict`` (``ucope.threads`` holds them
+at one): run it as a separate process beside a plain run to see what the hold saves (threads still spinning from
+one arm would slow the other, so the two cannot alternate in one process).
+
+    python benchmarks/bench_predict.py --model bottle mug laptop --out /tmp/held.json
+    python benchmarks/bench_predict.py --model bottle mug laptop --free-blas --out /tmp/free.json
 """
 
 from __future__ import annotations
@@ -68,8 +75,15 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=20)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path(__file__).with_name("results_predict.json"))
+    ap.add_argument("--free-blas", action="store_true", help="leave the BLAS threads alone during predict (see above)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
+    if args.free_blas:
+        import contextlib
+
+        import ucope.estimation.estimator as estimator_module
+
+        estimator_module.one_blas_thread = contextlib.nullcontext
     results = []
     for m in args.model or [m for m in list_pretrained() if m in CATEGORY_NAMES]:  # the others' views need their files
         pair = [bench(m, args.repeats, fast) for fast in (False, True)]
@@ -89,6 +103,7 @@ def main() -> None:
             {
                 "ucope_version": ucope.__version__,
                 "threads": args.threads,
+                "blas_held_at_one_thread": not args.free_blas,
                 "torch": torch.__version__,
                 "platform": platform.platform(),
                 "cpu_count": os.cpu_count(),
