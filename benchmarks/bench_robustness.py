@@ -359,12 +359,13 @@ def build_page(res: dict, figure_rel: str, before: dict | None = None) -> str:
         f"Measured with `{st['num']}` unseen test views per model (seed {st['seed']}, one view per instance, clean depth), "
         f"{st['num_pairs']} point pairs, normals estimated by `predict`; ucope {res.get('ucope_version')}."
     )
-    for r in runs:
+    if runs:
+        hw = [r["hardware"] for r in runs]
+        each = lambda key: ", ".join(sorted({str(h[key]) for h in hw}))  # noqa: E731
         L.append(
-            f"- run of {r['date']}: {len(r['models'])} model(s) ({', '.join(r['models'])}), kinds {', '.join(r['kinds'])}: "
-            f"{r['wall_s'] / 60:.1f} min wall time on {r['hardware']['cpu']} ({r['hardware']['cpu_count']} CPUs, "
-            f"shared), {r['hardware']['torch_threads']} torch thread(s), {r['hardware']['platform']}, torch "
-            f"{r['hardware']['torch']}."
+            f"The figures come from {len(runs)} runs ({sum(r['wall_s'] for r in runs) / 3600:.1f} h of wall time in all) on "
+            f"{each('cpu')} ({each('cpu_count')} CPUs), {each('torch_threads')} torch thread(s), torch {each('torch')}; "
+            "`runs` in the results JSON records each run's models, kinds, date and machine."
         )
     for m in models:
         md = res["models"][m]
