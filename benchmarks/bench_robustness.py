@@ -361,7 +361,10 @@ def build_page(res: dict, figure_rel: str, before: dict | None = None) -> str:
     )
     if runs:
         hw = [r["hardware"] for r in runs]
-        each = lambda key: ", ".join(sorted({str(h[key]) for h in hw}))  # noqa: E731
+
+        def each(key: str) -> str:  # the distinct values of one hardware field over the runs
+            return ", ".join(sorted({str(h[key]) for h in hw}))
+
         L.append(
             f"The figures come from {len(runs)} runs ({sum(r['wall_s'] for r in runs) / 3600:.1f} h of wall time in all) on "
             f"{each('cpu')} ({each('cpu_count')} CPUs), {each('torch_threads')} torch thread(s), torch {each('torch')}; "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg  # noqa: F401  (its BLAS loaded before the counts below, as in any ucope process)
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from ucope.threads import one_blas_thread
