@@ -13,8 +13,8 @@ Reported per model: the success of each draw; the best of ``k`` draws kept by th
 mean over every choice of ``k`` draws); the success if any draw succeeds; and the restart rule of
 ``search.restarts=N`` simulated on the recorded draws (a further draw while the best score so far is below
 a threshold, up to ``m`` draws; the highest-scored stands), averaged over every order of the draws, with the
-draws it takes per view. Writes ``benchmarks/results_restarts.json``; the search policy
-(``ucope.estimation.search.SearchPolicy``) chose its rule on such draws.
+draws it takes per view. Writes ``benchmarks/results_restarts.json``. Each model's restarts and bars are chosen on
+validation views by ``scripts/choose_search.py``, never on these.
 """
 
 from __future__ import annotations

@@ -55,14 +55,21 @@ VAL_SEED = 4242
 """The default seed of the validation views (no reported figure uses it)."""
 
 
-def val_views(category: str, num: int, seed: int, info: dict | None = None) -> list[dict]:
+def val_views(category: str, num: int, seed: int, info: dict | None = None, scale_range=None) -> list[dict]:
     """``num`` validation views of ``category`` (one per object; a category of your own drawn from the spec of the
-    model card ``info``'s training data); every second one corrupted, each by a random stream of its own."""
+    model card ``info``'s training data); every second one corrupted, each by a random stream of its own. With
+    ``scale_range`` ``(low, high)``, each object is built at a scale factor drawn log-uniformly in it (a stream of
+    its own per view) instead of its training size."""
     cfg = config_of_model(category, info, split="val", seed=seed, num=num, views_per_instance=1, background=True)
     aug = AugmentConfig(probability=1.0)
     out = []
     for i in range(num):
-        s = make_sample(cfg, i)
+        if scale_range is None:
+            s = make_sample(cfg, i)
+        else:
+            rng = np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(zlib.crc32(b"scale"), i)))
+            factor = float(np.exp(rng.uniform(np.log(scale_range[0]), np.log(scale_range[1]))))
+            s = make_sample(dataclasses.replace(cfg, scale=factor), i)
         if i % 2 == 1:
             rng = np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(zlib.crc32(category.encode()), i)))
             pts, labels, _ = augment_sample(s, rng, aug)
@@ -71,14 +78,19 @@ def val_views(category: str, num: int, seed: int, info: dict | None = None) -> l
     return out
 
 
+def view_ok(result, view: dict) -> bool:
+    """Whether every part of ``result`` is right on the validation view ``view``."""
+    # points a corruption added are no part (-1); the part errors are what counts here, not the segmentation
+    truth = dict(view, part_labels=np.maximum(np.asarray(view["part_labels"]), 0)) if len(view["size_m"]) > 1 else view
+    return bool(view_success(sample_errors(result, truth)["parts"]))
+
+
 def measure(est: Estimator, views: list[dict]) -> tuple[np.ndarray, float]:
     """Per view, whether every part is right; and the mean time per view (ms)."""
     ok, ms = [], 0.0
     for s in views:
         r = est.predict(s["points"], s.get("normals"))
-        # points a corruption added are no part (-1); the part errors are what counts here, not the segmentation
-        truth = dict(s, part_labels=np.maximum(np.asarray(s["part_labels"]), 0)) if len(s["size_m"]) > 1 else s
-        ok.append(view_success(sample_errors(r, truth)["parts"]))
+        ok.append(view_ok(r, s))
         ms += r.timings_ms["total"]
     return np.array(ok, dtype=bool), ms / len(views)
 

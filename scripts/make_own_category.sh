@@ -220,6 +220,7 @@ if has_stage finish; then  # the score calibration and the pipeline, chosen on v
     mkdir -p "$WORK/reports"
     "$PY" scripts/choose_pipeline.py --model "$RUN" --num "${CHOOSE_NUM:-100}" --report "$WORK/reports/${CATEGORY}_val_pipeline.json"
     "$PY" scripts/calibrate_scores.py --models "$RUN" --num "${CALIBRATE_NUM:-200}" --threads 1
+    "$PY" scripts/choose_search.py --model "$RUN" --report "$WORK/reports/${CATEGORY}_val_pipeline.json"
   fi
 fi
 

@@ -7,7 +7,7 @@ Every line of the page comes from code or data: each stage's name, kind, module 
 :data:`ucope.stages.REGISTRY`, its parameters from its params dataclass, which shipped models run it from their
 cards (``info.pipeline``), and its measured effect on validation views from
 ``docs/reports/MODEL_val_pipeline.json`` (scripts/choose_pipeline.py): the successes lost (or won) when the stage
-is left out of that model's list.
+is left out of that model's list; the search's bars from the same reports (scripts/choose_search.py).
 """
 
 from __future__ import annotations
@@ -103,7 +103,9 @@ def page() -> str:
     for model, p in cards.items():
         params = ", ".join(f"`{k}={json.dumps(v)}`" for k, v in p.params.items()) or "-"
         s = p.search
-        search = f"sizes {list(s.scale_factors)}, restarts {s.restarts}, pick {s.pick}"
+        sizes = f"sizes {list(s.scale_factors)} below {s.scale_below}" if s.scale_factors else "one size"
+        restarts = f"restarts {s.restarts} below {s.restart_below}" if s.restarts else "restarts 0"
+        search = f"{sizes}, {restarts}, pick {s.pick}"
         lines.append(f"| {model} | {', '.join(p.stages)} | {params} | {search} | {p.chosen_on or '-'} |")
     lines += [
         "",
@@ -118,7 +120,40 @@ def page() -> str:
         "part score is highest stands; `seen`: the lowest over the parts given at least one point).",
         "",
     ]
-    return "\n".join(lines + _fast(choices))
+    return "\n".join(lines + _search(choices) + _fast(choices))
+
+
+def _search(choices: dict[str, dict]) -> list[str]:
+    """The bars of each card's search against the policy they were chosen from (``choose_search.py``)."""
+    rows = [(m, c["search"], c["num"]) for m, c in choices.items() if "search" in c]
+    if not rows:
+        return []
+    out = [
+        "The bars `scale_below` and `restart_below` and the number of restarts are chosen by",
+        "`scripts/choose_search.py` on the validation views that chose the list and on as many validation objects built",
+        "at other sizes (drawn in the `ood` split's range, 0.5-2x): every estimate the search could make on a view is",
+        "made once, every policy of a grid of lower bars and fewer restarts is played out on them by the search itself,",
+        "and the one with the fewest estimates per view that loses none of the views the policy it started from gets",
+        "right is taken. Successes are given as *at training sizes + at other sizes*; the views gained are in the",
+        "model's report (`search.chosen`).",
+        "",
+        "| model | views | from | successes | estimates / view (p95) | chosen | successes | estimates / view (p95) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for m, s, n in rows:
+        w, a, c = s["measured_with"], s["card"], s["chosen"]
+
+        def succ(x: dict) -> str:
+            return " + ".join(str(v) for v in x["success"].values())
+
+        def bars(x: dict) -> str:
+            return f"sizes {x['scale_factors']} below {x['scale_below']}; restarts {x['restarts']} below {x['restart_below']}"
+
+        out.append(
+            f"| {m} | {n} + {n} | {bars(w)} | {succ(a)} | {a['estimates']:.2f} ({a['p95_estimates']:.0f}) | {bars(c)} | "
+            f"{succ(c)} | {c['estimates']:.2f} ({c['p95_estimates']:.0f}) |"
+        )
+    return out + [""]
 
 
 def _fast(choices: dict[str, dict]) -> list[str]:

@@ -19,7 +19,8 @@
 # the dishwasher gentler: lr 2e-4, --augment 0.5). Every final run is then finished the same way (finish_run below):
 # the surface noise of its validation views measured (scripts/set_denoise_default.py), its score calibrated
 # (scripts/calibrate_scores.py), its pipeline chosen on validation views (scripts/choose_pipeline.py: which stages it
-# keeps, how much it searches) and its calibration fitted again on the chosen pipeline.
+# keeps), its calibration fitted again on the chosen pipeline, and how much it searches chosen on the calibrated
+# scores (scripts/choose_search.py: the sizes, the score bars and the restarts).
 # (The shipped mug went through one more augmented stage of 3,000 steps before it; this script makes one.)
 #
 # ROUND2_CATS (default: eyeglasses scissors dishwasher drawer laptop laptop_rigid camera) get the second robustness
@@ -182,6 +183,7 @@ finish_run() {  # finish_run CATEGORY: runs/CATEGORY's noise threshold, calibrat
   "$PY" scripts/calibrate_scores.py --models "$WORK/runs/$c" --num "${CALIBRATE_NUM:-300}" --threads 1
   "$PY" scripts/choose_pipeline.py --model "$WORK/runs/$c" --report "$WORK/reports/${c}_val_pipeline.json"
   "$PY" scripts/calibrate_scores.py --models "$WORK/runs/$c" --num "${CALIBRATE_NUM:-300}" --threads 1
+  "$PY" scripts/choose_search.py --model "$WORK/runs/$c" --report "$WORK/reports/${c}_val_pipeline.json"
 }
 
 # The second robustness stage (2026-12-05): "VIEWS STEPS LR" and the training options of each category, on
