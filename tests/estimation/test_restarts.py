@@ -12,6 +12,12 @@ from ucope.estimation.search import SearchPolicy
 from ucope.eval.evaluate import sample_errors, view_success
 
 RESTART_BELOW = SearchPolicy().restart_below
+"""The bar these tests restart below (the policy's default; each model's card chooses its own)."""
+
+
+def _drawer(restarts: int) -> Estimator:
+    return Estimator.load("drawer", overrides={"search.restarts": restarts, "search.restart_below": RESTART_BELOW})
+
 
 DRAWER_TEST = GenerateConfig(category="drawer", split="test", num=200, seed=0)
 """The drawer's test split as docs/results.md evaluates it (``ucope generate --split test --num 200``)."""
@@ -40,10 +46,10 @@ def test_restarts_run_while_the_best_score_is_low_and_the_best_stands(spy):
     """Measured, not constructed: on drawer test view 30 (generator revision 2) the first draw fails (score
     0.73); further draws run while the best score stays below RESTART_BELOW, and the best of them succeeds."""
     s = make_sample(DRAWER_TEST, 30)
-    once = Estimator.load("drawer", overrides={"search.restarts": 0}).predict_sample(s)
+    once = _drawer(0).predict_sample(s)
     first = list(spy)
     spy.clear()
-    got = Estimator.load("drawer", overrides={"search.restarts": 4}).predict_sample(s)
+    got = _drawer(4).predict_sample(s)
     assert spy[: len(first)] == first and all(d == 0 for d, _, _ in first)  # the same first estimates
     more = spy[len(first) :]
     assert [d for d, _, _ in more] == list(range(1, len(more) + 1)) and 1 <= len(more) <= 4
@@ -59,16 +65,16 @@ def test_restarts_run_while_the_best_score_is_low_and_the_best_stands(spy):
 def test_a_confident_first_estimate_is_not_restarted(spy):
     """Drawer test view 1 scores 0.89 on its first draw: no further draw, the same result."""
     s = make_sample(DRAWER_TEST, 1)
-    once = Estimator.load("drawer", overrides={"search.restarts": 0}).predict_sample(s)
+    once = _drawer(0).predict_sample(s)
     n = len(spy)
-    got = Estimator.load("drawer", overrides={"search.restarts": 4}).predict_sample(s)
+    got = _drawer(4).predict_sample(s)
     assert once.score >= RESTART_BELOW and len(spy) == 2 * n and all(d == 0 for d, _, _ in spy)
     np.testing.assert_array_equal(got.cam_from_part, once.cam_from_part)
 
 
 def test_restarts_are_repeatable():
     s = make_sample(DRAWER_TEST, 7)
-    a = Estimator.load("drawer", overrides={"search.restarts": 2}).predict_sample(s)
-    b = Estimator.load("drawer", overrides={"search.restarts": 2}).predict_sample(s)
+    a = _drawer(2).predict_sample(s)
+    b = _drawer(2).predict_sample(s)
     np.testing.assert_array_equal(a.cam_from_part, b.cam_from_part)
     np.testing.assert_array_equal(a.part_labels, b.part_labels)
