@@ -7,7 +7,8 @@ Target (issue 52): median <= 100 ms and 95th percentile <= 250 ms per object for
 pipeline, on 2 CPU cores, 20,000 pairs, normals estimated by ucope. Measured on unseen test views of each model's
 category (one per object, seed 2027) in one process, each model with its default pipeline and with the fast
 setting (``ucope.estimation.FAST``: one estimate, one pass), so that their ratio compares within one run. Per stage:
-the median time over the views of the estimate that stands (``result.stages``).
+the median time over the views of the estimate that stands (``result.stages``); per model, the estimates its search
+made per view (mean and most).
 
 ``--free-blas`` leaves numpy's and scipy's BLAS threads as they are during ``predict`` (``ucope.threads`` holds them
 at one): run it as a separate process beside a plain run to see what the hold saves (threads still spinning from
@@ -44,9 +45,19 @@ def bench(model: str, repeats: int, fast: bool) -> dict:
     gen = GenerateConfig(category=est.category, split="test", seed=2027, num=repeats, views_per_instance=1)
     samples = [make_sample(gen, i) for i in range(repeats)]
     est.predict(samples[0]["points"])  # warm-up
-    rows, stages = [], {}
+    made = [0]
+    estimate = est._estimate
+
+    def counted(*args, **kwargs):  # the search's estimates of one view, counted
+        made[0] += 1
+        return estimate(*args, **kwargs)
+
+    est._estimate = counted
+    rows, stages, estimates = [], {}, []
     for s in samples:
+        made[0] = 0
         r = est.predict(s["points"])
+        estimates.append(made[0])
         rows.append(r.timings_ms)
         for rec in r.stages:
             stages.setdefault(rec["name"], []).append(rec["ms"])
@@ -60,6 +71,8 @@ def bench(model: str, repeats: int, fast: bool) -> dict:
         "p95_total_ms": float(np.percentile(totals, 95)),
         "max_total_ms": float(totals.max()),
         "stage_median_ms": {k: statistics.median(v) for k, v in stages.items()},
+        "estimates_mean": float(np.mean(estimates)),
+        "estimates_max": int(max(estimates)),
         "repeats": repeats,
     }
 
