@@ -97,7 +97,7 @@ def test_ascii_and_binary_ply_with_extra_properties_from_other_writers(tmp_path,
             str(tmp_path / "r.json"),
         ]
     )
-    assert rc == 0 and json.loads((tmp_path / "r.json").read_text())["format"] == "ucope-result/1"
+    assert rc == 0 and json.loads((tmp_path / "r.json").read_text())["format"] == "ucope-result/2"
 
 
 def test_pcd_variants_including_organised_binary_compressed(tmp_path, mug_sample):

@@ -45,8 +45,8 @@ MODEL_FORMAT = "ucope-model/2"
 CHECKPOINT_FORMAT = "ucope-checkpoint/2"
 """Format tag of a training checkpoint JSON."""
 
-RESULT_FORMAT = "ucope-result/1"
-"""Format tag of a pose result JSON (:mod:`ucope.estimation.result`)."""
+RESULT_FORMAT = "ucope-result/2"
+"""Format tag of a pose result JSON (:mod:`ucope.estimation.result`); 2: ``estimates``, how many the search made."""
 
 RESULTS_FORMAT = "ucope-results/1"
 """Format tag of the JSON of every object's result in one frame (:mod:`ucope.estimation.frame`)."""

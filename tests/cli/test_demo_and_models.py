@@ -65,7 +65,7 @@ def test_demo_prints_errors_and_writes_pictures(tmp_path, capsys):
     assert "joint 0->1 (revolute): axis" in out
     assert (tmp_path / "demo" / "demo.png").stat().st_size > 10_000
     r = json.loads((tmp_path / "demo" / "laptop_00.json").read_text())
-    assert r["format"] == "ucope-result/1" and len(r["errors"]["parts"]) == 2
+    assert r["format"] == "ucope-result/2" and len(r["errors"]["parts"]) == 2
 
 
 def test_demo_with_an_unknown_model_is_one_clear_line(tmp_path, capsys):

@@ -166,7 +166,7 @@ def test_cli_predict_on_files_folder_and_dataset(tiny_run, sample, tmp_path, cap
         == 0
     )
     d = json.loads((tmp_path / "a.json").read_text())
-    assert d["format"] == "ucope-result/1" and len(d["parts"]) == 2
+    assert d["format"] == "ucope-result/2" and len(d["parts"]) == 2
     assert (tmp_path / "a.png").stat().st_size > 1000
     assert (
         main(

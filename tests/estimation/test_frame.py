@@ -54,7 +54,7 @@ def test_bad_frames_and_instance_lists():
     with pytest.raises(InputError, match="given twice"):
         parse_instance_models(["1=mug", "1=bowl"])
     with pytest.raises(DataError, match="not a ucope frame result"):
-        FrameResult.from_dict({"format": "ucope-result/1"})
+        FrameResult.from_dict({"format": "ucope-result/2"})
 
 
 def test_segmented_cloud_inputs_are_checked_before_any_model_loads():

@@ -60,6 +60,7 @@ def test_restarts_run_while_the_best_score_is_low_and_the_best_stands(spy):
     assert got.score == pytest.approx(max(c[2] for c in spy)) and got.score > once.score
     assert not _success(once, s) and _success(got, s)
     assert got.timings_ms["total"] > 0
+    assert (once.estimates, got.estimates) == (len(first), len(spy))  # the result says how many estimates it took
 
 
 def test_a_confident_first_estimate_is_not_restarted(spy):

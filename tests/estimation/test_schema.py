@@ -1,4 +1,4 @@
-"""The JSON Schema of ``ucope-result/1`` / ``ucope-results/1`` shipped in the package, checked with the
+"""The JSON Schema of ``ucope-result/2`` / ``ucope-results/1`` shipped in the package, checked with the
 reference validator (``jsonschema``, a test dependency) against real results of shipped models."""
 
 import copy
@@ -28,7 +28,7 @@ def _errors(validator, doc) -> list[str]:
 def test_the_schema_ships_inside_the_package():
     assert SCHEMA_FILE.is_file() and SCHEMA_FILE.parent.name == "estimation"
     s = result_schema()
-    assert s["$defs"]["result"]["properties"]["format"]["const"] == "ucope-result/1"
+    assert s["$defs"]["result"]["properties"]["format"]["const"] == "ucope-result/2"
     assert s["$defs"]["results"]["properties"]["format"]["const"] == "ucope-results/1"
 
 
@@ -64,7 +64,9 @@ def test_broken_results_are_rejected(validator, laptop_sample_result):
     _, res, _ = laptop_sample_result
     good = res.to_dict()
     cases = {
-        "format": lambda d: d.update(format="ucope-result/2"),
+        "format": lambda d: d.update(format="ucope-result/1"),
+        "no estimates": lambda d: d.pop("estimates"),
+        "no estimate made": lambda d: d.update(estimates=0),
         "missing size": lambda d: d["parts"][0].pop("size_m"),
         "3x4 pose": lambda d: d["parts"][0]["cam_from_part"].pop(),
         "score > 1": lambda d: d["parts"][1].update(score=1.5),

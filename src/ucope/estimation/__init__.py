@@ -7,7 +7,7 @@ On top of the network (:mod:`ucope.model`), the voting maths (:mod:`ucope.voting
 * :mod:`.pipeline`: a model's stage list, parameters and search policy as its card stores them;
 * :mod:`.search`: how many estimates one view gets and which stands (:data:`FAST`: one);
 * :mod:`.inputs`: checking and cleaning input clouds, back-projecting depth images;
-* :class:`PoseResult` (:mod:`.result`): the result and its stable JSON form (``ucope-result/1``);
+* :class:`PoseResult` (:mod:`.result`): the result and its stable JSON form (``ucope-result/2``);
 * :mod:`.draw`: pictures of results.
 """
 

@@ -169,7 +169,7 @@ class Estimator:
         def estimate(normalise, draw):
             return self._estimate(pts, nrm, units, roll, len(raw), normalise=normalise, memo=memo, draw=draw)
 
-        est, timings, _ = search(self.pipeline.search, estimate, self.calibration is not None)
+        est, timings, made = search(self.pipeline.search, estimate, self.calibration is not None)
         final = est.final
         warnings = list(dict.fromkeys(warnings + est.warnings + final.input_warnings + final.warnings))
         t4 = time.perf_counter()
@@ -191,6 +191,7 @@ class Estimator:
             warnings=warnings,
             features=final.features,
             stages=[r.to_dict() for r in final.stages],
+            estimates=made,
         )
 
     def _roll_from_plane(self, pts: np.ndarray) -> np.ndarray | None:

@@ -8,7 +8,7 @@ model, result, or why it has none), saved as one JSON file (``format: "ucope-res
 ``$defs/results`` of :func:`ucope.estimation.result.result_schema`)::
 
     {"format": "ucope-results/1", "ucope_version": "0.2.0",
-     "objects": [{"instance_id": 1, "model": "mug", "num_pixels": 5321, "result": {...ucope-result/1...}},
+     "objects": [{"instance_id": 1, "model": "mug", "num_pixels": 5321, "result": {...ucope-result/2...}},
                  {"instance_id": 2, "model": "laptop", "num_pixels": 12, "result": null,
                   "error": "..."}],
      "source": {"depth": ..., "mask": ..., "intrinsics": [fx, fy, cx, cy], "image_size": [W, H], "depth_scale": 1000.0},

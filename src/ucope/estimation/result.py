@@ -1,10 +1,10 @@
 """The result of a pose estimate, and its stable JSON form.
 
-JSON form (``format: "ucope-result/1"``, JSON Schema: :func:`result_schema`, docs/formats.md; every
+JSON form (``format: "ucope-result/2"``, JSON Schema: :func:`result_schema`, docs/formats.md; every
 length in metres, angles in radians, camera frame = OpenCV: +x right, +y down, +z forward)::
 
     {
-      "format": "ucope-result/1",
+      "format": "ucope-result/2",
       "category": "laptop",
       "score": 0.83,                          # the object's confidence: its smallest part score
       "warnings": ["..."],                    # what looked wrong with the input or the estimate
@@ -17,6 +17,7 @@ length in metres, angles in radians, camera frame = OpenCV: +x right, +y down, +
       "part_labels": [0, 0, 1, -1, ...],      # one per input point; -1: not the object (NaN / Inf, background)
       "num_points": 12345,                    # input points
       "timings_ms": {"preprocess": ..., "encoder": ..., "pair_encoder": ..., "voting": ..., "total": ...},
+      "estimates": 1,                         # estimates the search made (timings_ms sums them all)
       "stages": [{"name": "vote_parts", "ms": 8.1, "changed": {"parts": ["base", "lid"], ...}}, ...],
       "model": "laptop", "ucope_version": "0.2.0", "conventions_version": "1",
       "errors": {...}                         # optional: errors against a known ground truth
@@ -50,11 +51,11 @@ from .result_check import validate
 __all__ = ["RESULT_FORMAT", "PartEstimate", "JointEstimate", "PoseResult", "result_schema", "validate", "SCHEMA_FILE"]
 
 SCHEMA_FILE = Path(__file__).with_name("result.schema.json")
-"""The JSON Schema (draft 2020-12) of ``ucope-result/1`` and ``ucope-results/1``, shipped in the package."""
+"""The JSON Schema (draft 2020-12) of ``ucope-result/2`` and ``ucope-results/1``, shipped in the package."""
 
 
 def result_schema() -> dict:
-    """The JSON Schema (draft 2020-12) of a result file: one object's ``ucope-result/1`` or one frame's
+    """The JSON Schema (draft 2020-12) of a result file: one object's ``ucope-result/2`` or one frame's
     ``ucope-results/1`` (``$defs/result`` and ``$defs/results``). Validate with any JSON Schema library,
     e.g. ``jsonschema.validate(json.load(f), result_schema())``; docs/formats.md describes every field."""
     return read_json(SCHEMA_FILE)
@@ -171,6 +172,9 @@ class PoseResult:
     stages: list[dict] = field(default_factory=list, compare=False)
     """What each stage of the pipeline did in the estimate that stands: ``{"name", "ms", "changed"}`` per stage,
     in order (:class:`ucope.stages.base.StageRecord`)."""
+    estimates: int = 1
+    """How many estimates the search made (:mod:`ucope.estimation.search`: sizes, restarts; >= 1); ``timings_ms``
+    sums them all, ``stages`` is the one that stands."""
 
     @property
     def cam_from_part(self) -> np.ndarray:
@@ -202,6 +206,7 @@ class PoseResult:
             "part_labels": np.asarray(self.part_labels, dtype=np.int64).tolist(),
             "num_points": int(self.num_points),
             "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
+            "estimates": int(self.estimates),
             "stages": [dict(s) for s in self.stages],
             "model": self.model,
             "ucope_version": __version__,
@@ -230,6 +235,7 @@ class PoseResult:
                 num_points=int(d.get("num_points", 0)),
                 warnings=[str(w) for w in d.get("warnings", [])],
                 stages=[dict(s) for s in d.get("stages", [])],
+                estimates=int(d["estimates"]),
                 errors=d.get("errors"),
             )
         except (KeyError, TypeError, ValueError) as e:

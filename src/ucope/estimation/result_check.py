@@ -1,4 +1,4 @@
-"""The checks of a ``ucope-result/1`` JSON form beyond its JSON Schema (:func:`validate`).
+"""The checks of a ``ucope-result/2`` JSON form beyond its JSON Schema (:func:`validate`).
 
 :mod:`ucope.estimation.result` re-exports :func:`validate`; :meth:`~ucope.estimation.result.PoseResult.from_dict`
 and :meth:`~ucope.estimation.result.PoseResult.load` call it, so a result that loads can be drawn and exported.
@@ -31,6 +31,7 @@ _RESULT_KEYS = {
     "part_labels",
     "num_points",
     "timings_ms",
+    "estimates",
     "model",
     "ucope_version",
     "conventions_version",
@@ -47,7 +48,7 @@ _JOINT_ERROR_KEYS = {"joint_type", "axis_deg", "axis_line_deg", "pivot_m", "stat
 
 
 def validate(d: Any) -> dict:
-    """Check a ``ucope-result/1`` JSON form (a dict as :meth:`~ucope.estimation.result.PoseResult.to_dict` writes it).
+    """Check a ``ucope-result/2`` JSON form (a dict as :meth:`~ucope.estimation.result.PoseResult.to_dict` writes it).
 
     Beyond the JSON Schema (:func:`~ucope.estimation.result.result_schema`): part ``index`` ``k`` at position ``k``; rigid
     ``cam_from_part`` (last row ``[0, 0, 0, 1]``, orthonormal rotation with determinant 1, within
@@ -162,7 +163,8 @@ def _check_labels(labels, num_points, K: int) -> None:
 
 
 def _check_summary(d: dict, parts: list) -> None:
-    """The object's ``score`` (its smallest part score), ``warnings``, ``timings_ms`` and version strings."""
+    """The object's ``score`` (its smallest part score), ``warnings``, ``timings_ms``, ``estimates`` and version
+    strings."""
     score = _number(d["score"], "score", 0.0, 1.0)
     lowest = min(float(p["score"]) for p in parts)
     if abs(score - lowest) > 1e-4:
@@ -175,6 +177,7 @@ def _check_summary(d: dict, parts: list) -> None:
         raise _bad("timings_ms", "must be an object of {stage: milliseconds}")
     for key, v in d["timings_ms"].items():
         _number(v, f"timings_ms.{key}", 0.0)
+    _integer(d["estimates"], "estimates", 1)
     for key in ("model", "ucope_version", "conventions_version"):
         _string(d[key], key)
 
