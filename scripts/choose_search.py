@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-import json
 import sys
 import time
 from pathlib import Path
@@ -47,10 +46,11 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from choose_pipeline import val_views, view_ok, write_card  # noqa: E402
 
 import ucope.estimation.estimator as estimator_module  # noqa: E402
+from ucope.errors import DataError  # noqa: E402
 from ucope.estimation import Estimator  # noqa: E402
 from ucope.estimation.pipeline import Pipeline  # noqa: E402
 from ucope.estimation.search import SearchPolicy, search  # noqa: E402
-from ucope.fileio import atomic_write_json  # noqa: E402
+from ucope.fileio import atomic_write_json, read_json  # noqa: E402
 from ucope.model.checkpoint import find_model, load_model  # noqa: E402
 from ucope.objects.categories import OOD_SCALE_RANGE  # noqa: E402
 
@@ -119,6 +119,7 @@ def play(policy: SearchPolicy, table: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _outcome(policy: SearchPolicy, tables: dict[str, dict]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """:func:`play` of ``policy`` on every table."""
     return {name: play(policy, table) for name, table in tables.items()}
 
 
@@ -159,7 +160,19 @@ def choose(card: SearchPolicy, tables: dict[str, dict]) -> tuple[SearchPolicy, d
     return best, {"card": summary(card), "chosen": summary(best), "policies_tried": tried}
 
 
+def sizes_seed(seed: int) -> int:
+    """The seed of the validation objects at other sizes, beside the report's views of seed ``seed``."""
+    return seed + 1
+
+
 def main() -> int:
+    try:
+        return _main()
+    except DataError as e:  # a corrupt report, a model whose validation views cannot be made here
+        raise SystemExit(f"choose_search: {e}") from None
+
+
+def _main() -> int:
     import torch
 
     torch.set_num_threads(1)  # one process per core when several models are chosen at once
@@ -175,7 +188,7 @@ def main() -> int:
     report = args.report or ROOT / "docs" / "reports" / f"{name}_val_pipeline.json"
     if not report.is_file():
         raise SystemExit(f"{report}: no validation report (run scripts/choose_pipeline.py --model {args.model} first)")
-    rep = json.loads(report.read_text())
+    rep = read_json(report, "validation report")
     net, meta = load_model(find_model(args.model))
     pipe = Pipeline.from_info(meta.get("info"), net.cfg.priors, net.cfg.head)
     if pipe.calibration is None:
@@ -184,9 +197,7 @@ def main() -> int:
     card = pipe.search
     if args.rechoose and "measured_with" in stored:  # the policy the table was measured with, not the one it chose
         mw = stored["measured_with"]
-        card = dataclasses.replace(
-            card, **{k: v for k, v in mw.items() if k != "scale_factors"}, scale_factors=tuple(mw["scale_factors"])
-        )
+        card = dataclasses.replace(card, **(mw | {"scale_factors": tuple(mw["scale_factors"])}))
     if card.restarts == 0 and len(card.scale_factors) == 0:
         raise SystemExit(f"{args.model}: its search makes one estimate; nothing to choose")
     if args.rechoose:
@@ -199,14 +210,14 @@ def main() -> int:
         cat, num, seed, info = net.cfg.category, rep["num"], rep["seed"], meta.get("info")
         tables = {
             "val": measure_table(est, val_views(cat, num, seed, info)),
-            "val_sizes": measure_table(est, val_views(cat, num, seed + 1, info, scale_range=OOD_SCALE_RANGE)),
+            "val_sizes": measure_table(est, val_views(cat, num, sizes_seed(seed), info, scale_range=OOD_SCALE_RANGE)),
         }
         hyps = len(tables["val"]["hypotheses"])
         print(f"{args.model}: {hyps} estimates x {num} + {num} views in {time.perf_counter() - t0:.0f} s", flush=True)
     chosen, summary = choose(card, tables)
     keys = ("scale_factors", "scale_below", "restart_below", "restarts")
-    measured_with = {k: getattr(card, k) for k in keys} | {"scale_factors": list(card.scale_factors)}
-    rep["search"] = {"measured_with": measured_with, "sizes_seed": rep["seed"] + 1, **summary, "tables": tables}
+    measured_with = {k: list(v) if k == "scale_factors" else v for k, v in card.to_dict().items() if k in keys}
+    rep["search"] = {"measured_with": measured_with, "sizes_seed": sizes_seed(rep["seed"]), **summary, "tables": tables}
     atomic_write_json(report, rep)
     a, c = summary["card"], summary["chosen"]
     what = f"sizes {c['scale_factors']} below {c['scale_below']}, restarts {c['restarts']} below {c['restart_below']}"

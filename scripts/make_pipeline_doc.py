@@ -123,6 +123,16 @@ def page() -> str:
     return "\n".join(lines + _search(choices) + _fast(choices))
 
 
+def _succ(outcome: dict) -> str:
+    """Successes of a policy on each set of views, ``"a + b"``."""
+    return " + ".join(str(v) for v in outcome["success"].values())
+
+
+def _bars(p: dict) -> str:
+    """A search policy of a choice report, in words."""
+    return f"sizes {p['scale_factors']} below {p['scale_below']}; restarts {p['restarts']} below {p['restart_below']}"
+
+
 def _search(choices: dict[str, dict]) -> list[str]:
     """The bars of each card's search against the policy they were chosen from (``choose_search.py``)."""
     rows = [(m, c["search"], c["num"]) for m, c in choices.items() if "search" in c]
@@ -142,16 +152,9 @@ def _search(choices: dict[str, dict]) -> list[str]:
     ]
     for m, s, n in rows:
         w, a, c = s["measured_with"], s["card"], s["chosen"]
-
-        def succ(x: dict) -> str:
-            return " + ".join(str(v) for v in x["success"].values())
-
-        def bars(x: dict) -> str:
-            return f"sizes {x['scale_factors']} below {x['scale_below']}; restarts {x['restarts']} below {x['restart_below']}"
-
         out.append(
-            f"| {m} | {n} + {n} | {bars(w)} | {succ(a)} | {a['estimates']:.2f} ({a['p95_estimates']:.0f}) | {bars(c)} | "
-            f"{succ(c)} | {c['estimates']:.2f} ({c['p95_estimates']:.0f}) |"
+            f"| {m} | {n} + {n} | {_bars(w)} | {_succ(a)} | {a['estimates']:.2f} ({a['p95_estimates']:.0f}) | {_bars(c)} | "
+            f"{_succ(c)} | {c['estimates']:.2f} ({c['p95_estimates']:.0f}) |"
         )
     return out + [""]
 
