@@ -15,12 +15,13 @@ the roll read from that support plane (``search.roll_from_plane``). A view succe
 when every part is within 10 degrees and 10 % of its ground-truth box diagonal
 (:func:`ucope.eval.evaluate.sample_errors`).
 
-Writes ``benchmarks/results_roll.json``; ``scripts/make_results.py`` puts its table in docs/results.md.
+Writes ``benchmarks/results_roll.json`` (docs/results.md points to it).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -57,8 +58,10 @@ def with_floor(sample: dict, rng: np.random.Generator, share: float = 0.5) -> np
 
 
 def view_record(est: Estimator, sample: dict, up, points=None) -> dict:
+    """One estimate of ``sample`` (or of ``points``: its points with floor points after them) scored against it."""
     res = est.predict(sample["points"] if points is None else points, up=up)
-    err = sample_errors(res, sample)["parts"]
+    n = len(sample["points"])  # the object's points come first: the floor's have no ground-truth label
+    err = sample_errors(dataclasses.replace(res, part_labels=res.part_labels[:n]), sample)["parts"]
     return {
         "rot_deg": [e["rotation_deg"] for e in err],
         "success": bool(view_success(err)),

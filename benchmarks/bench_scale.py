@@ -15,7 +15,7 @@ A view succeeds when every part is within 10 degrees and 10 % of its ground-trut
 Reported per model, factor and setting: success fraction, median rotation error (deg, over parts and
 views), median size ratio (cube root of predicted / true box volume) and median 3D IoU.
 
-Writes ``benchmarks/results_scale.json``; ``scripts/make_results.py`` puts its table in docs/results.md.
+Writes ``benchmarks/results_scale.json`` (docs/results.md points to it).
 """
 
 from __future__ import annotations
