@@ -10,8 +10,8 @@ of its category (generator defaults, one view per instance, seed ``--seed``) are
 and estimated five ways: without the ``upright`` stage (``carried_views`` counts the views where it acted), with
 the defaults, with the world's up direction given (``predict(points, up=...)``, the object's y axis, which the
 generators stand upright: what an IMU would report), which turns the cloud back to an upright camera first, and,
-with floor points under the object added to the cloud (half as many as the object's), with the defaults and with
-the roll read from that support plane (``search.roll_from_plane``). A view succeeds
+with rendered floor points next to the object added to the cloud (half as many as the object's: :func:`with_floor`),
+with the defaults and with the roll read from that support plane (``search.roll_from_plane``). A view succeeds
 when every part is within 10 degrees and 10 % of its ground-truth box diagonal
 (:func:`ucope.eval.evaluate.sample_errors`).
 
@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ucope.data.augment import sample_context
+from ucope.data.corrupt import add_floor
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.sample import roll_sample
 from ucope.estimation import Estimator
@@ -43,18 +45,11 @@ SETTINGS = ("no_carry", "default", "up_given", "floor_default", "floor_plane")
 
 
 def with_floor(sample: dict, rng: np.random.Generator, share: float = 0.5) -> np.ndarray:
-    """The sample's points and floor points under the object (the plane it stands on, its y axis the normal, out to
-    1.5x its extent), ``share`` times as many as the object's, those the camera sees from above."""
-    T = np.asarray(sample["cam_from_object"], np.float64)
-    pts = np.asarray(sample["points"], np.float64)
-    local = (pts - T[:3, 3]) @ T[:3, :3]
-    reach = 1.5 * float(np.abs(local[:, [0, 2]]).max())
-    n = int(share * len(pts))
-    xz = rng.uniform(-reach, reach, size=(4 * n, 2))
-    floor = np.column_stack([xz[:, 0], np.full(len(xz), local[:, 1].min()), xz[:, 1]]) @ T[:3, :3].T + T[:3, 3]
-    eye_above = (-T[:3, 3]) @ T[:3, 1] > floor @ T[:3, 1] - T[:3, 3] @ T[:3, 1]  # the camera above the plane
-    floor = floor[(floor[:, 2] > 0.05) & eye_above][:n]
-    return np.concatenate([pts, floor]).astype(np.float32)
+    """The sample's points and rendered floor points next to it, ``share`` times as many as the object's: the floor
+    pixels of its background pool nearest its silhouette (:func:`ucope.data.corrupt.add_floor`, the robustness
+    benchmark's and the training augmentation's floor), so only floor the camera sees, with the sensor's noise."""
+    points, _ = add_floor(sample["points"], sample["part_labels"], share, rng, sample_context(sample))
+    return points.astype(np.float32)
 
 
 def view_record(est: Estimator, sample: dict, up, points=None) -> dict:
@@ -128,7 +123,7 @@ def main(argv=None) -> None:
     t0 = time.perf_counter()
     models = {m: run_model(m, args.num, args.seed, args.rolls, args.pairs, args.model_dir) for m in args.models}
     settings = {"num": args.num, "seed": args.seed, "rolls_deg": args.rolls, "pairs": args.pairs}
-    write_results(args.out, "ucope-roll/1", settings, models, t0, args.threads)
+    write_results(args.out, "ucope-roll/2", settings, models, t0, args.threads)
 
 
 if __name__ == "__main__":
