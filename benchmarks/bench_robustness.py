@@ -4,6 +4,8 @@
     python benchmarks/bench_robustness.py --models mug laptop --kinds noise points --num 5 \
         --out /tmp/r.json --page /tmp/r.md --figure /tmp/r.png
     python benchmarks/bench_robustness.py --page-only              # rebuild docs/robustness.md and the figure from the JSON
+    python benchmarks/bench_robustness.py --models camera --kinds noise --out /tmp/cc.json --no-page \
+        --stages clean_cloud,vote_parts,align_faces,flips,upright,score,fit_boxes --set clean_cloud.plane=false
 
 For every model, ``--num`` unseen test views of its category are rendered with clean depth (one view per
 instance, a distractor object added on the floor right next to the object in the image, see
@@ -38,11 +40,13 @@ from ucope import __version__
 from ucope.data.corrupt import KINDS, CorruptionContext, background_pool, corrupt
 from ucope.data.generate import GenerateConfig, make_sample
 from ucope.data.scenes import add_adjacent_distractor
+from ucope.errors import InputError
 from ucope.eval.evaluate import mug_handle_kept
 from ucope.eval.metrics import rotation_error_deg, translation_error_m
 from ucope.objects.categories import get_category
 from ucope.render.noise import DepthNoise
 from ucope.render.views import ViewConfig
+from ucope.stages.base import parse_overrides
 from ucope.stages.confidence import auroc
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -164,14 +168,26 @@ def level_specs(kinds) -> list[tuple[str, str, object]]:
     return [(k, spec_of(k, lv), lv) for k in kinds for lv in KINDS[k].levels if lv != KINDS[k].identity]
 
 
-def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir: Path | None = None) -> dict:
+def run_model(
+    name: str,
+    kinds,
+    num: int,
+    seed: int,
+    pairs: int,
+    log,
+    model_dir: Path | None = None,
+    stages: list[str] | None = None,
+    overrides: dict | None = None,
+) -> dict:
     import ucope
 
     category = name
     spec = get_category(category)
     K = spec.num_parts
     est = ucope.Estimator.load(
-        str(model_dir / f"{name}.json") if model_dir is not None else name, overrides={"vote_parts.num_pairs": pairs}
+        str(model_dir / f"{name}.json") if model_dir is not None else name,
+        stages=stages,
+        overrides={"vote_parts.num_pairs": pairs, **(overrides or {})},
     )
     view_cfg = ViewConfig(noise=DepthNoise(enabled=False))
     # the benchmark adds its own adjacent distractor and background pool: the generator's are off
@@ -254,18 +270,22 @@ def run_model(name: str, kinds, num: int, seed: int, pairs: int, log, model_dir:
 
 
 def settings(args) -> dict:
-    return {
-        "num": args.num,
-        "seed": args.seed,
-        "split": "test",
-        "views_per_instance": 1,
-        "num_pairs": args.pairs,
-        "depth": "clean (DepthNoise(enabled=False))",
-        "normals": "estimated by predict",
-        "adjacent_distractor": True,
-        "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its GT box diagonal",
-        "success_10deg10cm": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_M:g} cm",
-    }
+    return (
+        {
+            "num": args.num,
+            "seed": args.seed,
+            "split": "test",
+            "views_per_instance": 1,
+            "num_pairs": args.pairs,
+            "depth": "clean (DepthNoise(enabled=False))",
+            "normals": "estimated by predict",
+            "adjacent_distractor": True,
+            "success": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_REL:g} % of its GT box diagonal",
+            "success_10deg10cm": f"every part < {ROT_DEG:g} deg and < {100 * TRANS_M:g} cm",
+        }
+        | ({"stages": args.stages.split(",")} if args.stages else {})
+        | ({"set": args.set} if args.set else {})
+    )
 
 
 def kinds_meta() -> dict:
@@ -609,6 +629,19 @@ def main(argv=None) -> None:
         default=None,
         help="load <name>.json from this folder instead of the shipped models (to compare model sets)",
     )
+    ap.add_argument(
+        "--stages",
+        default=None,
+        help="one model's stages instead of its card's, comma-separated (e.g. a stage added); recorded in the settings, "
+        "so such a run never merges into results of the cards' own stages",
+    )
+    ap.add_argument(
+        "--set",
+        nargs="+",
+        default=[],
+        metavar="STAGE.PARAM=VALUE",
+        help="stage parameters instead of the card's, as `ucope predict --set`; recorded in the settings like --stages",
+    )
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results_robustness.json")
     ap.add_argument("--page", type=Path, default=ROOT / "docs" / "robustness.md")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "images" / "robustness.png")
@@ -628,6 +661,12 @@ def main(argv=None) -> None:
     unknown = [m for m in args.models if m not in MODELS]
     if unknown:
         raise SystemExit(f"unknown model(s) {unknown}; the shipped models: {', '.join(MODELS)}")
+    if (args.stages or args.set) and len(args.models) != 1:
+        raise SystemExit("--stages and --set change one model's pipeline: give one model with --models")
+    try:
+        overrides = parse_overrides(args.set)
+    except InputError as e:
+        raise SystemExit(f"--set: {e}") from None
     import torch
 
     torch.set_num_threads(args.threads)
@@ -647,7 +686,11 @@ def main(argv=None) -> None:
     t0 = time.perf_counter()
     for m in args.models:
         log(f"{m}: {args.num} views, kinds {', '.join(args.kinds)}")
-        new = run_model(m, args.kinds, args.num, args.seed, args.pairs, log, args.model_dir)
+        stages = args.stages.split(",") if args.stages else None
+        try:
+            new = run_model(m, args.kinds, args.num, args.seed, args.pairs, log, args.model_dir, stages, overrides)
+        except InputError as e:  # a model, stage list or setting that cannot load (a prediction's error is recorded)
+            raise SystemExit(f"{m}: {e}") from None
         if m in res["models"]:  # merge: keep the levels this run did not redo
             new["levels"] = {**res["models"][m]["levels"], **new["levels"]}
         res["models"][m] = new

@@ -69,3 +69,28 @@ def test_the_results_cover_every_shipped_model_kind_and_level():
                 spec = "clean" if lv == kind.identity else f"{kind.name}={lv:g}"
                 assert spec in levels, (m, spec)
                 assert len(levels[spec]["views"]["success"]) == 40
+
+
+def test_a_run_with_other_stages_never_merges_into_the_cards_results(tmp_path):
+    out = tmp_path / "r.json"
+    shutil.copy(RESULTS, out)
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_robustness.py"), "--models", "camera", "--out", str(out)]
+    r = subprocess.run([*cmd, "--set", "clean_cloud.plane=false"], check=False, capture_output=True, text=True, timeout=120)
+    assert r.returncode != 0 and "other settings" in r.stderr
+    r = subprocess.run(
+        [*cmd[:-4], "--models", "camera", "mug", "--stages", "vote_parts"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode != 0 and "one model" in r.stderr
+    assert out.read_bytes() == RESULTS.read_bytes()
+
+
+@pytest.mark.parametrize("name", ["camera_smoothing", "camera_clean_cloud"])
+def test_the_camera_runs_with_smoothing_record_their_pipeline(name):
+    res = json.loads((ROOT / "benchmarks" / f"results_robustness_{name}.json").read_text())
+    assert res["settings"]["stages"][0] == "clean_cloud"
+    assert res["settings"].get("set", []) == (["clean_cloud.plane=false"] if name.endswith("smoothing") else [])
+    assert {k: v for k, v in res["settings"].items() if k not in ("stages", "set")} == json.loads(RESULTS.read_text())["settings"]
