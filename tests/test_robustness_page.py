@@ -74,16 +74,20 @@ def test_the_results_cover_every_shipped_model_kind_and_level():
 def test_a_run_with_other_stages_never_merges_into_the_cards_results(tmp_path):
     out = tmp_path / "r.json"
     shutil.copy(RESULTS, out)
-    cmd = [sys.executable, str(ROOT / "benchmarks" / "bench_robustness.py"), "--models", "camera", "--out", str(out)]
-    r = subprocess.run([*cmd, "--set", "clean_cloud.plane=false"], check=False, capture_output=True, text=True, timeout=120)
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        script = str(ROOT / "benchmarks" / "bench_robustness.py")
+        return subprocess.run(
+            [sys.executable, script, "--out", str(out), "--no-page", *args],
+            check=False,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+
+    r = run("--models", "camera", "--set", "clean_cloud.plane=false")
     assert r.returncode != 0 and "other settings" in r.stderr
-    r = subprocess.run(
-        [*cmd[:-4], "--models", "camera", "mug", "--stages", "vote_parts"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    r = run("--models", "camera", "mug", "--stages", "vote_parts")
     assert r.returncode != 0 and "one model" in r.stderr
     assert out.read_bytes() == RESULTS.read_bytes()
 
