@@ -8,6 +8,11 @@ split (seed :data:`GOLDEN_SEED`, one view per object):
 * ``cam_from_part`` ``(V, K, 4, 4)``, ``size_m`` ``(V, K, 3)``, ``score`` / ``vote_score`` ``(V, K)``;
 * ``joint_axis`` / ``joint_pivot_m`` ``(V, J, 3)`` (NaN: no pivot), ``joint_state`` / ``joint_score`` ``(V, J)``;
 * ``labels`` ``(V, N)`` int8, the per-point part labels (padded with -2 past each view's points).
+
+Another CPU runs the same code with other float32 kernels (BLAS, vector units): the outputs then differ by up to
+about 1e-5 (:data:`ATOL` leaves room for that), and on a few views such a difference tips a discrete choice (an
+inlier test, an argmax, which estimate of the search stands), so that the view's result moves as a whole.
+:data:`MAX_MOVED` is the share of views that may move so without failing the comparison.
 """
 
 from __future__ import annotations
@@ -19,6 +24,14 @@ import numpy as np
 GOLDEN_DIR = Path(__file__).parent / "golden"
 GOLDEN_SEED = 20261207
 """Seed of the golden views (no reported figure uses it)."""
+
+ATOL = 1e-4
+"""Absolute tolerance of every golden field (metres, unit-vector and rotation-matrix entries, scores, states)."""
+
+MAX_MOVED = 0.05
+"""Share of the views compared that may differ beyond :data:`ATOL` (rounded down: none of a handful of views). The
+price: a code change that moves fewer views than this passes the slow comparison with warnings only, so a change
+meant to move results re-records the golden files."""
 
 FIELDS = ("cam_from_part", "size_m", "score", "vote_score", "joint_axis", "joint_pivot_m", "joint_state", "joint_score")
 
@@ -71,7 +84,7 @@ def load(model: str) -> dict[str, np.ndarray]:
         return {k: z[k] for k in z.files}
 
 
-def differences(stored: dict, got: dict, rows: np.ndarray, atol: float = 1e-6) -> list[str]:
+def differences(stored: dict, got: dict, rows: np.ndarray, atol: float = ATOL) -> list[str]:
     """One line per golden view (rows ``rows`` of ``stored``) whose results in ``got`` differ beyond ``atol``."""
     out = []
     for i, row in enumerate(rows):
